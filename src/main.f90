@@ -1,0 +1,4 @@
+program sph
+  implicit none
+  print '(a)', 'sph: under construction'
+end program sph
