@@ -1,0 +1,37 @@
+"""Shared helpers for the integration tests: run ./sph (under mpirun), make
+scratch directories, read the outputs."""
+import csv
+import os
+import pathlib
+import subprocess
+import tempfile
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+SPH = ROOT / "sph"
+
+ENV = dict(os.environ)
+ENV.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+           OMPI_MCA_rmaps_base_oversubscribe="1")
+
+
+def run_sph(args, np=1, cwd=None, timeout=600):
+    """Runs `mpirun -np np ./sph args...`; returns the CompletedProcess
+    (stdout and stderr as text, merged into .out as well)."""
+    cmd = ["mpirun", "-np", str(np), str(SPH)] + [str(a) for a in args]
+    p = subprocess.run(cmd, cwd=cwd or ROOT, env=ENV, capture_output=True, text=True,
+                       timeout=timeout)
+    p.out = p.stdout + p.stderr
+    return p
+
+
+def scratch(prefix):
+    """A fresh temporary directory (left for inspection under /tmp)."""
+    return pathlib.Path(tempfile.mkdtemp(prefix=f"sph_{prefix}_"))
+
+
+def read_timeseries(path):
+    """timeseries.csv as a dict of column name -> list of floats."""
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    header, data = rows[0], rows[1:]
+    return {name: [float(r[k]) for r in data] for k, name in enumerate(header)}
