@@ -21,7 +21,9 @@ module neighbours
   end type neighbour_list_t
 
   !> A grid of cubic cells with one empty layer of padding on each side, so
-  !> that a stencil around any occupied cell stays inside the grid.
+  !> that a stencil around any occupied cell stays inside the grid.  Cell
+  !> (0-based) coordinate along an axis: 1 + int((x - lo)/size), lo the
+  !> cloud's minimum (the padding is added in integers, free of round-off).
   type :: cell_grid_t
     real(wp) :: lo(3) = 0, size = 1
     integer :: nc(3) = 1
@@ -56,9 +58,6 @@ contains
       g%size = g%size * 1.25_wp
     end do
     g%lo = lo
-    do a = 1, dim
-      g%lo(a) = lo(a) - g%size
-    end do
     zr = merge(1, 0, dim == 3)
     g%n_stencil = 3**dim
     allocate(g%stencil(g%n_stencil))
@@ -77,8 +76,8 @@ contains
     type(cell_grid_t), intent(in) :: g
     real(wp), intent(in) :: x(3)
     integer :: i(3)
-    i = int((x - g%lo) / g%size)
-    i(3) = min(i(3), g%nc(3) - 1)   ! 2D: one layer, x(3) = 0
+    i = 1 + int((x - g%lo) / g%size)
+    if (g%nc(3) == 1) i(3) = 0   ! 2D: a single layer
     c = 1 + i(1) + g%nc(1) * (i(2) + g%nc(2) * i(3))
   end function cell_of
 

@@ -1,0 +1,219 @@
+!> The weakly-compressible SPH right-hand side (DESIGN.md section 2).
+!>
+!> Notation: x_ij = x_i - x_j, r = |x_ij|, g = grad_i W_ij = F(r) x_ij with
+!> F = W'/r < 0 (kernels module), V_j = m_j/rho_j, u_ji = u_j - u_i.  Pairs
+!> come from a half list, so each pair is visited once and its contribution
+!> is added to i and, with the antisymmetry grad_j W_ji = -g, to j.
+!> Contributions to halo copies (j > n) land in scratch slots and are ignored.
+module fluid_rhs
+  use kinds, only: wp, i8
+  use kernels, only: kernel_t, kernel_f
+  use neighbours, only: neighbour_list_t
+  implicit none
+  private
+  public :: rhs_params_t, rhs_density_gradient, rhs_evaluate, sym_min_eigenvalue, LAMBDA_MIN
+  public :: VISC_NONE, VISC_DELTA, VISC_MONAGHAN, DIFF_NONE, DIFF_MOLTENI, DIFF_ANTUONO
+
+  integer, parameter :: VISC_NONE = 0, VISC_DELTA = 1, VISC_MONAGHAN = 2
+  integer, parameter :: DIFF_NONE = 0, DIFF_MOLTENI = 1, DIFF_ANTUONO = 2
+  real(wp), parameter :: LAMBDA_MIN = 0.1_wp   !< below it, M_i is not inverted
+
+  !> The physical and numerical constants of the right-hand side.
+  type :: rhs_params_t
+    type(kernel_t) :: kernel
+    integer :: dim = 2
+    real(wp) :: c0 = 10, rho0 = 1
+    integer :: viscosity = VISC_DELTA
+    real(wp) :: alpha = 0.01_wp
+    integer :: diffusion = DIFF_MOLTENI
+    real(wp) :: delta = 0.1_wp
+  end type rhs_params_t
+
+contains
+
+  !> First pass of delta-SPH with the Antuono correction: the renormalised
+  !> density gradient (E2, E3)
+  !>   G_i = L_i Sum_j (rho_j - rho_i) g V_j,  L_i = M_i^-1,
+  !>   M_i = Sum_j V_j g (x_j - x_i)^T = - Sum_j V_j F x_ij x_ij^T,
+  !> so that G_i is exact for a linear density field.  Where M_i is nearly
+  !> singular (isolated particles, thin filaments: smallest eigenvalue below
+  !> LAMBDA_MIN, against 1 in the bulk and about 0.5 on a flat free surface)
+  !> L_i = I is used instead.
+  subroutine rhs_density_gradient(prm, n, ntot, x, rho, m, nl, grad_rho)
+    type(rhs_params_t), intent(in) :: prm
+    integer, intent(in) :: n, ntot
+    real(wp), intent(in) :: x(3, ntot), rho(ntot), m(ntot)
+    type(neighbour_list_t), intent(in) :: nl
+    real(wp), intent(out) :: grad_rho(3, ntot)
+    real(wp), allocatable :: mm(:, :)   ! symmetric M: xx, yy, zz, xy, xz, yz
+    real(wp) :: xij(3), r2, f, g(3), vi, vj, drho, s2, inv(3, 3), det
+    integer :: i, j
+    integer(i8) :: k
+    allocate(mm(6, ntot))
+    mm = 0
+    grad_rho = 0
+    s2 = prm%kernel%support**2
+    do i = 1, n
+      vi = m(i) / rho(i)
+      do k = nl%start(i), nl%start(i + 1) - 1
+        j = nl%nbr(k)
+        xij = x(:, i) - x(:, j)
+        r2 = xij(1)**2 + xij(2)**2 + xij(3)**2
+        if (r2 >= s2) cycle
+        f = kernel_f(prm%kernel, sqrt(r2))
+        g = f * xij
+        vj = m(j) / rho(j)
+        drho = rho(j) - rho(i)
+        ! (rho_j - rho_i) g V_j for i; (rho_i - rho_j)(-g) V_i for j
+        grad_rho(:, i) = grad_rho(:, i) + drho * vj * g
+        grad_rho(:, j) = grad_rho(:, j) + drho * vi * g
+        ! -F x_ij x_ij^T is the same for i and j
+        mm(:, i) = mm(:, i) - vj * f * [xij(1)**2, xij(2)**2, xij(3)**2, &
+                                       xij(1) * xij(2), xij(1) * xij(3), xij(2) * xij(3)]
+        mm(:, j) = mm(:, j) - vi * f * [xij(1)**2, xij(2)**2, xij(3)**2, &
+                                       xij(1) * xij(2), xij(1) * xij(3), xij(2) * xij(3)]
+      end do
+    end do
+    do i = 1, n
+      if (sym_min_eigenvalue(prm%dim, mm(:, i)) < LAMBDA_MIN) cycle
+      call invert_sym(prm%dim, mm(:, i), inv, det)
+      grad_rho(:, i) = matmul(inv, grad_rho(:, i))
+    end do
+    grad_rho(:, n + 1:ntot) = 0   ! halo values come from their owners
+  end subroutine rhs_density_gradient
+
+  !> Smallest eigenvalue of the symmetric dim x dim matrix stored as (xx, yy,
+  !> zz, xy, xz, yz): closed form in 2D, the trigonometric form in 3D.
+  pure function sym_min_eigenvalue(dim, a) result(lam)
+    integer, intent(in) :: dim
+    real(wp), intent(in) :: a(6)
+    real(wp) :: lam, q, p1, p2, p, b(6), r, phi
+    if (dim == 2) then
+      lam = 0.5_wp * (a(1) + a(2)) - sqrt(0.25_wp * (a(1) - a(2))**2 + a(4)**2)
+      return
+    end if
+    p1 = a(4)**2 + a(5)**2 + a(6)**2
+    q = (a(1) + a(2) + a(3)) / 3
+    if (p1 <= epsilon(1.0_wp) * q**2) then
+      lam = minval(a(1:3))
+      return
+    end if
+    p2 = (a(1) - q)**2 + (a(2) - q)**2 + (a(3) - q)**2 + 2 * p1
+    p = sqrt(p2 / 6)
+    b(1:3) = (a(1:3) - q) / p
+    b(4:6) = a(4:6) / p
+    ! r = det(B)/2 with B = (A - q I)/p
+    r = 0.5_wp * (b(1) * (b(2) * b(3) - b(6)**2) - b(4) * (b(4) * b(3) - b(6) * b(5)) &
+                  + b(5) * (b(4) * b(6) - b(2) * b(5)))
+    r = max(-1.0_wp, min(1.0_wp, r))
+    phi = acos(r) / 3
+    lam = q + 2 * p * cos(phi + 2 * acos(-1.0_wp) / 3)
+  end function sym_min_eigenvalue
+
+  !> Inverse of the symmetric dim x dim matrix stored as (xx, yy, zz, xy, xz,
+  !> yz), and its determinant; the unused rows of a 2D inverse are zero.
+  pure subroutine invert_sym(dim, a, inv, det)
+    integer, intent(in) :: dim
+    real(wp), intent(in) :: a(6)
+    real(wp), intent(out) :: inv(3, 3), det
+    inv = 0
+    if (dim == 2) then
+      det = a(1) * a(2) - a(4)**2
+      if (det <= 0) return
+      inv(1, 1) = a(2) / det
+      inv(2, 2) = a(1) / det
+      inv(1, 2) = -a(4) / det
+      inv(2, 1) = inv(1, 2)
+    else
+      inv(1, 1) = a(2) * a(3) - a(6)**2
+      inv(1, 2) = a(5) * a(6) - a(4) * a(3)
+      inv(1, 3) = a(4) * a(6) - a(5) * a(2)
+      inv(2, 2) = a(1) * a(3) - a(5)**2
+      inv(2, 3) = a(4) * a(5) - a(1) * a(6)
+      inv(3, 3) = a(1) * a(2) - a(4)**2
+      det = a(1) * inv(1, 1) + a(4) * inv(1, 2) + a(5) * inv(1, 3)
+      if (det <= 0) return
+      inv(2, 1) = inv(1, 2); inv(3, 1) = inv(1, 3); inv(3, 2) = inv(2, 3)
+      inv = inv / det
+    end if
+  end subroutine invert_sym
+
+  !> Time derivatives of density and velocity of the n owned particles.
+  !>  (E1) D rho_i/Dt = -rho_i Sum_j u_ji . g V_j + D_i
+  !>  (E2) D_i = delta h c0 Sum_j psi_ij . g V_j,
+  !>       psi_ij = 2 (rho_j - rho_i) (x_j - x_i)/r^2 - (G_i + G_j)
+  !>  (E4) D u_i/Dt = -(1/rho_i) Sum_j (p_i + p_j) g V_j + visc_i
+  !>  (E5) visc_i = alpha h c0 (rho0/rho_i) Sum_j pi_ij g V_j,
+  !>       pi_ij = u_ji . (x_j - x_i)/r^2;  or Monaghan's Pi_ij.
+  !> grad_rho (G) is used only with the Antuono diffusion and must then hold
+  !> valid values for halo copies too.
+  subroutine rhs_evaluate(prm, n, ntot, x, u, rho, m, p, grad_rho, nl, drho, du)
+    type(rhs_params_t), intent(in) :: prm
+    integer, intent(in) :: n, ntot
+    real(wp), intent(in) :: x(3, ntot), u(3, ntot), rho(ntot), m(ntot), p(ntot)
+    real(wp), intent(in) :: grad_rho(3, ntot)
+    type(neighbour_list_t), intent(in) :: nl
+    real(wp), intent(out) :: drho(ntot), du(3, ntot)
+    real(wp) :: xij(3), uji(3), g(3), r2, r, f, s2, h, eta2
+    real(wp) :: div, dterm, a, coef_i, coef_j, mij, coef_visc, diff_coef, xu
+    real(wp) :: drho_i, du_i(3), rhoi, mi
+    integer :: i, j
+    integer(i8) :: k
+    logical :: antuono
+    h = prm%kernel%h
+    s2 = prm%kernel%support**2
+    eta2 = 0.01_wp * h**2
+    coef_visc = 0
+    if (prm%viscosity == VISC_DELTA) coef_visc = prm%alpha * h * prm%c0 * prm%rho0
+    diff_coef = 0
+    if (prm%diffusion /= DIFF_NONE) diff_coef = prm%delta * h * prm%c0
+    antuono = prm%diffusion == DIFF_ANTUONO
+    drho = 0
+    du = 0
+    do i = 1, n
+      rhoi = rho(i)
+      mi = m(i)
+      drho_i = 0
+      du_i = 0
+      do k = nl%start(i), nl%start(i + 1) - 1
+        j = nl%nbr(k)
+        xij = x(:, i) - x(:, j)
+        r2 = xij(1)**2 + xij(2)**2 + xij(3)**2
+        if (r2 >= s2) cycle
+        r = sqrt(r2)
+        f = kernel_f(prm%kernel, r)
+        g = f * xij
+        uji = u(:, j) - u(:, i)
+        ! (E1): u_ji . g is the pair's velocity divergence
+        div = uji(1) * g(1) + uji(2) * g(2) + uji(3) * g(3)
+        ! (E2): (x_j - x_i) . g / r^2 = -F, so the first part of psi . g is
+        ! -2 (rho_j - rho_i) F; psi_ji = psi_ij and grad_j W_ji = -g.
+        dterm = -2 * (rho(j) - rhoi) * f
+        if (antuono) dterm = dterm - sum((grad_rho(:, i) + grad_rho(:, j)) * g)
+        dterm = diff_coef * dterm
+        drho_i = drho_i + (-rhoi * div + dterm) * m(j) / rho(j)
+        drho(j) = drho(j) + (-rho(j) * div - dterm) * mi / rhoi
+        ! (E4) + (E5): du_i = A m_j/(rho_i rho_j) g, du_j = -A m_i/(rho_i rho_j) g
+        xu = -(uji(1) * xij(1) + uji(2) * xij(2) + uji(3) * xij(3))   ! u_ji . (x_j - x_i)
+        a = -(p(i) + p(j))
+        select case (prm%viscosity)
+        case (VISC_DELTA)
+          a = a + coef_visc * xu / r2
+        case (VISC_MONAGHAN)
+          ! Pi_ij = -alpha c0 mu_ij / rhobar for approaching pairs, with
+          ! u_ij . x_ij = u_ji . (x_j - x_i) = xu; du_i = -m_j Pi_ij g.
+          if (xu < 0) a = a + prm%alpha * prm%c0 * h * xu / (r2 + eta2) &
+                          / (0.5_wp * (rhoi + rho(j))) * rhoi * rho(j)
+        end select
+        mij = 1 / (rhoi * rho(j))
+        coef_i = a * m(j) * mij
+        coef_j = -a * mi * mij
+        du_i = du_i + coef_i * g
+        du(:, j) = du(:, j) + coef_j * g
+      end do
+      drho(i) = drho(i) + drho_i
+      du(:, i) = du(:, i) + du_i
+    end do
+  end subroutine rhs_evaluate
+
+end module fluid_rhs
