@@ -8,7 +8,7 @@ module solver
   use eos, only: eos_t, eos_pressure
   use fluid_rhs, only: rhs_params_t, rhs_density_gradient, rhs_evaluate, DIFF_ANTUONO, &
                        VISC_NONE
-  use parallel_env, only: parallel_env_t, par_max, par_any, par_sum
+  use parallel_env, only: parallel_env_t, par_max
   implicit none
   private
   public :: solver_t, solver_init, solver_step, solver_evaluate, solver_rebuild, &
@@ -39,9 +39,8 @@ contains
 
   !> Sizes the work arrays for the particles already in s%parts and builds
   !> the first neighbour list.
-  subroutine solver_init(s, env)
+  subroutine solver_init(s)
     type(solver_t), intent(inout) :: s
-    type(parallel_env_t), intent(in) :: env
     integer :: cap
     cap = size(s%parts%rho)
     allocate(s%drho(cap), s%du(3, cap), s%grad_rho(3, cap))
@@ -51,13 +50,12 @@ contains
     s%nu = 0
     if (s%rhs%viscosity /= VISC_NONE) &
       s%nu = s%rhs%alpha * s%rhs%kernel%h * s%rhs%c0 / (2 * (s%parts%dim + 2))
-    call solver_rebuild(s, env)
+    call solver_rebuild(s)
   end subroutine solver_init
 
   !> Sorts the owned particles by cell and rebuilds the neighbour list.
-  subroutine solver_rebuild(s, env)
+  subroutine solver_rebuild(s)
     type(solver_t), intent(inout) :: s
-    type(parallel_env_t), intent(in) :: env
     integer, allocatable :: perm(:)
     real(wp) :: radius
     associate(pt => s%parts)
@@ -68,7 +66,6 @@ contains
       call neighbour_build(s%nl, pt%dim, pt%n, pt%n + pt%n_halo, pt%x, radius)
     end associate
     s%n_rebuilds = s%n_rebuilds + 1
-    if (env%nranks < 0) error stop   ! env is for the halo exchange of the parallel issue
   end subroutine solver_rebuild
 
   !> One right-hand-side evaluation at the current state: pressure from the
@@ -129,7 +126,7 @@ contains
     ! the speed-up within the step
     moved = par_max(env, max_displacement(s%nl, s%parts%x))
     reach = moved + 1.25_wp * s%cfl * s%rhs%kernel%h * s%umax / (s%rhs%c0 + s%umax)
-    if (2 * reach >= s%skin) call solver_rebuild(s, env)
+    if (2 * reach >= s%skin) call solver_rebuild(s)
 
     call solver_evaluate(s)
     call solver_time_step(s, env, dt)

@@ -1,0 +1,205 @@
+!> Prototype problem 1: the stretching free-surface circular patch (2D,
+!> `circle2d`) and sphere (3D, `ellipsoid3d`), with the exact solution X1
+!> recorded beside the SPH values.
+!>
+!> Initial state (paper eq. 1, DESIGN.md X1): u_k = alpha_k x_k,
+!> p = P(0) (1 - |x|^2/R^2), rho from the inverse equation of state,
+!> m = rho times the particle's area (volume).
+module case_stretching
+  use kinds, only: wp
+  use particles, only: particles_t, particles_allocate
+  use placement, only: place_ball, ball_spacing
+  use eos, only: eos_t, eos_density
+  use exact_ellipse, only: ellipse_exact_t, ellipse_exact_init, ellipse_exact_at, &
+                           ellipse_centre_pressure, ellipse_map, ellipse_velocity, &
+                           ellipse_pressure
+  use diagnostics, only: fitted_semi_axes
+  use parallel_env, only: parallel_env_t, par_sum_array
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_nan
+  implicit none
+  private
+  public :: stretching_t, stretching_setup, stretching_columns, stretching_sample, &
+            stretching_fields, stretching_summary
+
+  !> The case, its exact solution and the running means of its errors.
+  type :: stretching_t
+    integer :: dim = 2
+    real(wp) :: radius = 1, a0 = 1, rho0 = 1
+    real(wp) :: rates(3) = 0            !< alpha_k(0) / A0
+    real(wp) :: p0 = 0                  !< P(0), exact centre pressure at t = 0
+    type(ellipse_exact_t) :: ex
+    ! running sums over samples (for the paper's time-averaged errors)
+    integer :: n_samples = 0
+    real(wp) :: sum_axis_err = 0, sum_pos_err = 0, sum_vel_err = 0, sum_p_err = 0
+    integer :: n_p_samples = 0
+    ! the last sample's errors
+    real(wp) :: axis_err(3) = 0, pos_err = 0, vel_err = 0, ke = 0, ke_exact = 0, ke_start = 0
+  end type stretching_t
+
+contains
+
+  !> Places the particles and sets their initial state (one rank holds all
+  !> until the domain decomposition distributes them).
+  subroutine stretching_setup(st, dim, radius, a0, rates, rho0, eos, n_target, &
+                              placement_kind, parts, dx)
+    type(stretching_t), intent(out) :: st
+    integer, intent(in) :: dim, n_target, placement_kind
+    real(wp), intent(in) :: radius, a0, rates(3), rho0
+    type(eos_t), intent(in) :: eos
+    type(particles_t), intent(inout) :: parts
+    real(wp), intent(out) :: dx
+    real(wp), allocatable :: x(:, :), vol(:)
+    real(wp) :: p
+    integer :: i, np
+    st%dim = dim
+    st%radius = radius
+    st%a0 = a0
+    st%rho0 = rho0
+    st%rates = 0
+    st%rates(1:dim) = rates(1:dim)
+    call ellipse_exact_init(st%ex, dim, rho0, radius, a0 * rates(1:dim))
+    st%p0 = ellipse_centre_pressure(st%ex)
+    dx = ball_spacing(dim, radius, n_target, placement_kind)
+    call place_ball(dim, radius, dx, placement_kind, x, vol)
+    np = size(vol)
+    call particles_allocate(parts, dim, np)
+    parts%n = np
+    do i = 1, np
+      parts%x(:, i) = x(:, i)
+      parts%x0(:, i) = x(:, i)
+      parts%u(:, i) = a0 * st%rates * x(:, i)
+      p = st%p0 * (1 - sum(x(:, i)**2) / radius**2)
+      parts%p(i) = p
+      parts%rho(i) = eos_density(eos, p)
+      parts%m(i) = parts%rho(i) * vol(i)
+      parts%id(i) = i
+    end do
+  end subroutine stretching_setup
+
+  !> Time-series columns this case adds after the generic ones.
+  subroutine stretching_columns(st, names)
+    type(stretching_t), intent(in) :: st
+    character(len=32), allocatable, intent(out) :: names(:)
+    character(len=1), parameter :: ax(3) = ['1', '2', '3']
+    integer :: k, d
+    d = st%dim
+    allocate(names(0))
+    names = [character(len=32) :: 'kinetic_energy_exact', 'p_centre_exact']
+    names = [character(len=32) :: names, ('semi_axis_' // ax(k), k = 1, d)]
+    names = [character(len=32) :: names, ('semi_axis_' // ax(k) // '_exact', k = 1, d)]
+    names = [character(len=32) :: names, ('semi_axis_' // ax(k) // '_error', k = 1, d)]
+    names = [character(len=32) :: names, 'rms_position_error', 'rms_velocity_error']
+  end subroutine stretching_columns
+
+  !> Values of the case's columns at time t.  The probe pressure at the
+  !> centre (p_centre, from the caller) enters the running pressure error.
+  !>  - kinetic_energy_exact: KE of these particles moving with the exact
+  !>    flow, Sum 1/2 m |alpha(t) x_exact|^2 (constant in time);
+  !>  - semi_axis_k: fitted to the particles' second moments; _exact: a_k(t);
+  !>    _error: fitted SPH axis over the same fit of the exact positions,
+  !>    minus 1 (removes the fit's small bias on a discrete sample);
+  !>  - rms_position_error: RMS |x - x_exact| / R over particles, with
+  !>    x_exact the exact Lagrangian map of the particle's initial position;
+  !>  - rms_velocity_error: RMS |u - alpha x| / (A0 R), exact velocity at the
+  !>    particle's own position.
+  subroutine stretching_sample(st, env, t, parts, p_centre, values)
+    type(stretching_t), intent(inout) :: st
+    type(parallel_env_t), intent(in) :: env
+    real(wp), intent(in) :: t, p_centre
+    type(particles_t), intent(in) :: parts
+    real(wp), allocatable, intent(out) :: values(:)
+    real(wp), allocatable :: xe(:, :)
+    real(wp) :: s(4), fit(3), fit_exact(3), ue(3), a_over_r(3)
+    integer :: i, n, d
+    n = parts%n
+    d = st%dim
+    call ellipse_exact_at(st%ex, t)
+    allocate(xe(3, max(n, 1)))
+    a_over_r = st%ex%a / st%radius
+    s = 0
+    do i = 1, n
+      xe(:, i) = parts%x0(:, i) * a_over_r
+      ue = st%ex%alpha * parts%x(:, i)
+      s(1) = s(1) + sum((parts%x(:, i) - xe(:, i))**2)
+      s(2) = s(2) + sum((parts%u(:, i) - ue)**2)
+      s(3) = s(3) + 0.5_wp * parts%m(i) * sum((st%ex%alpha * xe(:, i))**2)
+      s(4) = s(4) + 1
+    end do
+    call par_sum_array(env, s)
+    fit = fitted_semi_axes(env, d, n, parts%m, parts%x)
+    fit_exact = fitted_semi_axes(env, d, n, parts%m, xe)
+    st%pos_err = sqrt(s(1) / s(4)) / st%radius
+    st%vel_err = sqrt(s(2) / s(4)) / (st%a0 * st%radius)
+    st%ke_exact = s(3)
+    st%axis_err = 0
+    st%axis_err(1:d) = fit(1:d) / fit_exact(1:d) - 1
+    values = [st%ke_exact, ellipse_centre_pressure(st%ex), fit(1:d), st%ex%a(1:d), &
+              st%axis_err(1:d), st%pos_err, st%vel_err]
+    st%n_samples = st%n_samples + 1
+    st%sum_axis_err = st%sum_axis_err + maxval(abs(st%axis_err(1:d)))
+    st%sum_pos_err = st%sum_pos_err + st%pos_err
+    st%sum_vel_err = st%sum_vel_err + st%vel_err
+    if (.not. ieee_is_nan(p_centre)) then   ! a particle was near the centre
+      st%sum_p_err = st%sum_p_err + abs(p_centre - ellipse_centre_pressure(st%ex)) / st%p0
+      st%n_p_samples = st%n_p_samples + 1
+    end if
+  end subroutine stretching_sample
+
+  !> Extra snapshot fields: exact Lagrangian positions, the exact velocity
+  !> and pressure at each particle's position.
+  subroutine stretching_fields(st, t, parts, names, vectors, scalars)
+    type(stretching_t), intent(inout) :: st
+    real(wp), intent(in) :: t
+    type(particles_t), intent(in) :: parts
+    character(len=32), allocatable, intent(out) :: names(:)
+    real(wp), allocatable, intent(out) :: vectors(:, :, :)   !< (3, n, 2)
+    real(wp), allocatable, intent(out) :: scalars(:, :)      !< (n, 1)
+    integer :: i, n
+    n = parts%n
+    call ellipse_exact_at(st%ex, t)
+    names = [character(len=32) :: 'position_exact', 'velocity_exact', 'pressure_exact']
+    allocate(vectors(3, n, 2), scalars(n, 1))
+    do i = 1, n
+      vectors(:, i, 1) = ellipse_map(st%ex, parts%x0(:, i))
+      vectors(:, i, 2) = ellipse_velocity(st%ex, parts%x(:, i))
+      scalars(i, 1) = ellipse_pressure(st%ex, parts%x(:, i))
+    end do
+  end subroutine stretching_fields
+
+  !> The closing summary of errors against the exact solution (rank 0 prints).
+  subroutine stretching_summary(st, env, unit, t, ke, ke_start, p_centre)
+    type(stretching_t), intent(inout) :: st
+    type(parallel_env_t), intent(in) :: env
+    integer, intent(in) :: unit
+    real(wp), intent(in) :: t, ke, ke_start, p_centre
+    real(wp) :: pc
+    integer :: k
+    character(len=1), parameter :: ax(3) = ['x', 'y', 'z']
+    if (env%rank /= 0) return
+    call ellipse_exact_at(st%ex, t)
+    pc = ellipse_centre_pressure(st%ex)
+    write(unit, '(a)') ''
+    write(unit, '(a,f8.4,a)') 'Errors against the exact solution at t A0 = ', t * st%a0, ':'
+    do k = 1, st%dim
+      write(unit, '(2x,a,a,f10.6,a,f10.6,a,f8.3,a)') 'semi-axis ', ax(k), st%ex%a(k), &
+        ' exact, ', st%ex%a(k) * (1 + st%axis_err(k)), ' SPH: error', 100 * st%axis_err(k), ' %'
+    end do
+    write(unit, '(2x,a,f8.3,a)') 'RMS position error (vs Lagrangian map) / R   ', &
+      100 * st%pos_err, ' %'
+    write(unit, '(2x,a,f8.3,a)') 'RMS velocity error / (A0 R)                  ', &
+      100 * st%vel_err, ' %'
+    write(unit, '(2x,a,f8.3,a)') 'kinetic energy change since t = 0            ', &
+      100 * (ke / ke_start - 1), ' %'
+    write(unit, '(2x,a,f8.3,a,es11.4,a,es11.4,a)') 'centre pressure error (raw) / P(0)           ', &
+      100 * (p_centre - pc) / st%p0, ' %  (SPH ', p_centre, ', exact ', pc, ')'
+    if (st%n_samples > 0) then
+      write(unit, '(a,i0,a)') 'Time-averaged over ', st%n_samples, ' samples:'
+      write(unit, '(2x,a,f8.3,a)') 'max semi-axis error    ', 100 * st%sum_axis_err / st%n_samples, ' %'
+      write(unit, '(2x,a,f8.3,a)') 'RMS position error     ', 100 * st%sum_pos_err / st%n_samples, ' %'
+      write(unit, '(2x,a,f8.3,a)') 'RMS velocity error     ', 100 * st%sum_vel_err / st%n_samples, ' %'
+      if (st%n_p_samples > 0) write(unit, '(2x,a,f8.3,a)') &
+        'centre pressure (raw)  ', 100 * st%sum_p_err / st%n_p_samples, ' % of P(0)'
+    end if
+  end subroutine stretching_summary
+
+end module case_stretching

@@ -1,0 +1,114 @@
+!> Global diagnostics of the particle state (DESIGN.md section 6), reduced
+!> over all ranks.
+module diagnostics
+  use kinds, only: wp
+  use particles, only: particles_t
+  use kernels, only: kernel_t, kernel_w
+  use parallel_env, only: parallel_env_t, par_sum, par_sum_array
+  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_is_finite
+  implicit none
+  private
+  public :: kinetic_energy, total_mass, total_momentum, probe_pressure, fitted_semi_axes, &
+            find_bad_particle, nan_value
+
+contains
+
+  !> 1/2 Sum m |u|^2
+  function kinetic_energy(env, parts) result(ke)
+    type(parallel_env_t), intent(in) :: env
+    type(particles_t), intent(in) :: parts
+    real(wp) :: ke
+    integer :: n
+    n = parts%n
+    ke = par_sum(env, 0.5_wp * sum(parts%m(1:n) * sum(parts%u(:, 1:n)**2, dim=1)))
+  end function kinetic_energy
+
+  function total_mass(env, parts) result(mass)
+    type(parallel_env_t), intent(in) :: env
+    type(particles_t), intent(in) :: parts
+    real(wp) :: mass
+    mass = par_sum(env, sum(parts%m(1:parts%n)))
+  end function total_mass
+
+  function total_momentum(env, parts) result(mom)
+    type(parallel_env_t), intent(in) :: env
+    type(particles_t), intent(in) :: parts
+    real(wp) :: mom(3)
+    integer :: k
+    do k = 1, 3
+      mom(k) = sum(parts%m(1:parts%n) * parts%u(k, 1:parts%n))
+    end do
+    call par_sum_array(env, mom)
+  end function total_momentum
+
+  !> Shepard-normalised kernel interpolation of the pressure at a point:
+  !> p(x) = Sum_j p_j W(x - x_j) V_j / Sum_j W(x - x_j) V_j.  NaN when no
+  !> particle lies within the kernel support of the point.
+  function probe_pressure(env, parts, kernel, point) result(p)
+    type(parallel_env_t), intent(in) :: env
+    type(particles_t), intent(in) :: parts
+    type(kernel_t), intent(in) :: kernel
+    real(wp), intent(in) :: point(3)
+    real(wp) :: p, sums(2), w, r2, s2
+    integer :: j
+    sums = 0
+    s2 = kernel%support**2
+    do j = 1, parts%n
+      r2 = sum((parts%x(:, j) - point)**2)
+      if (r2 >= s2) cycle
+      w = kernel_w(kernel, sqrt(r2)) * parts%m(j) / parts%rho(j)
+      sums = sums + [w * parts%p(j), w]
+    end do
+    call par_sum_array(env, sums)
+    if (sums(2) > 0) then
+      p = sums(1) / sums(2)
+    else
+      p = nan_value()
+    end if
+  end function probe_pressure
+
+  !> Semi-axes of the ellipse (ellipsoid) with the particles' second moments
+  !> about their centre of mass: a_k = 2 sqrt(<x_k^2>) in 2D, sqrt(5 <x_k^2>)
+  !> in 3D (uniform ellipse / ellipsoid).  x is either the particle positions
+  !> or any other per-particle points (e.g. the exact Lagrangian map).
+  function fitted_semi_axes(env, dim, n, m, x) result(axes)
+    type(parallel_env_t), intent(in) :: env
+    integer, intent(in) :: dim, n
+    real(wp), intent(in) :: m(:), x(:, :)
+    real(wp) :: axes(3), s(7), c(3)
+    integer :: k
+    s = 0
+    s(1) = sum(m(1:n))
+    do k = 1, 3
+      s(1 + k) = sum(m(1:n) * x(k, 1:n))
+      s(4 + k) = sum(m(1:n) * x(k, 1:n)**2)
+    end do
+    call par_sum_array(env, s)
+    c = s(2:4) / s(1)
+    axes = 0
+    do k = 1, dim
+      axes(k) = sqrt(max(0.0_wp, s(4 + k) / s(1) - c(k)**2) * merge(4.0_wp, 5.0_wp, dim == 2))
+    end do
+  end function fitted_semi_axes
+
+  !> The first particle whose state is not finite or whose density is not
+  !> positive (0 when all are sound), and, when all are sound, nothing else.
+  function find_bad_particle(parts) result(i_bad)
+    type(particles_t), intent(in) :: parts
+    integer :: i_bad, i
+    i_bad = 0
+    do i = 1, parts%n
+      if (.not. (all(ieee_is_finite(parts%x(:, i))) .and. all(ieee_is_finite(parts%u(:, i))) &
+                 .and. ieee_is_finite(parts%rho(i)) .and. parts%rho(i) > 0)) then
+        i_bad = i
+        return
+      end if
+    end do
+  end function find_bad_particle
+
+  function nan_value() result(v)
+    real(wp) :: v
+    v = ieee_value(1.0_wp, ieee_quiet_nan)
+  end function nan_value
+
+end module diagnostics

@@ -1,0 +1,402 @@
+!> One run from a validated configuration: set up the case, step to the end
+!> time, write snapshots and the time series, print progress and the final
+!> comparison with the exact solution.
+module simulation
+  use, intrinsic :: iso_fortran_env, only: output_unit, error_unit
+  use kinds, only: wp, i8
+  use config, only: config_t, config_dim, config_echo
+  use kernels, only: kernel_init, KERNEL_WENDLAND_C2, KERNEL_CUBIC_SPLINE, KERNEL_GAUSSIAN
+  use eos, only: eos_init, EOS_LINEAR, EOS_TAIT
+  use placement, only: PLACE_RINGS, PLACE_LATTICE
+  use fluid_rhs, only: VISC_NONE, VISC_DELTA, VISC_MONAGHAN, DIFF_NONE, DIFF_MOLTENI, &
+                       DIFF_ANTUONO
+  use solver, only: solver_t, solver_init, solver_step, solver_evaluate, solver_time_step, &
+                    SCHEME_RK4, SCHEME_PC2
+  use diagnostics, only: kinetic_energy, total_mass, total_momentum, probe_pressure, &
+                         find_bad_particle
+  use case_stretching, only: stretching_t, stretching_setup, stretching_columns, &
+                             stretching_sample, stretching_fields, stretching_summary
+  use parallel_env, only: parallel_env_t, par_sum, par_any, wall_time
+  use fileutil, only: make_directory, join_path, rename_file, temp_path
+  use snapshot_io, only: snapshot_field_t, snapshot_write, snapshot_filename, &
+                         xdmf_index_t, xdmf_init
+  use timeseries, only: timeseries_t, timeseries_init, timeseries_add, timeseries_flush
+  implicit none
+  private
+  public :: simulation_run
+
+  !> Everything one run carries besides the solver.
+  type :: run_t
+    type(stretching_t) :: stretching
+    type(timeseries_t) :: ts
+    type(xdmf_index_t) :: xdmf
+    character(len=:), allocatable :: dir
+    integer :: n_snapshots = 0
+    integer :: n_probes = 0
+    real(wp) :: probes(3, 16) = 0
+    real(wp) :: ke_start = 0
+    integer(i8) :: n_global = 0
+  end type run_t
+
+contains
+
+  !> Runs the case described by cfg; status is the process exit code
+  !> (0 success, 1 a failure during the run).
+  subroutine simulation_run(cfg, env, status)
+    type(config_t), intent(in) :: cfg
+    type(parallel_env_t), intent(in) :: env
+    integer, intent(out) :: status
+    type(solver_t) :: s
+    type(run_t) :: run
+    real(wp) :: t, dt, dx, t_next_out, wall0, wall_last, dt_est, t_end
+    integer :: step, dim, i_bad
+    logical :: ok, done, snap_now
+    character(len=:), allocatable :: errmsg
+
+    status = 0
+    dim = config_dim(cfg)
+    t_end = cfg%run%t_end
+    call setup(cfg, s, run, dx)
+    call solver_init(s)
+    run%n_global = nint(par_sum(env, real(s%parts%n, wp)), i8)
+
+    ! output directory, the echoed input, the time series and the index
+    run%dir = trim(cfg%output%dir)
+    call make_directory(run%dir, ok, errmsg)
+    if (.not. par_any_fail(env, ok, errmsg)) then
+      status = 1
+      return
+    end if
+    if (env%rank == 0) call echo_input(cfg, join_path(run%dir, 'input.nml'), ok, errmsg)
+    if (.not. par_any_fail(env, ok, errmsg)) then
+      status = 1
+      return
+    end if
+    call xdmf_init(run%xdmf, join_path(run%dir, 'snapshots.xdmf'))
+    call timeseries_init(run%ts, env%comm, join_path(run%dir, 'timeseries.csv'), &
+                         column_names(run, dim))
+
+    ! first evaluation: the time-step limits to report, and the state at t = 0
+    call solver_evaluate(s)
+    call solver_time_step(s, env, dt_est)
+    call print_start(cfg, env, s, run, dx, dt_est)
+
+    t = 0
+    step = 0
+    run%ke_start = kinetic_energy(env, s%parts)
+    call sample(run, env, s, t, step, 0.0_wp)
+    call write_snapshot(cfg, env, s, run, t, step, ok)
+    if (.not. ok) then
+      status = 1
+      return
+    end if
+    t_next_out = cfg%output%dt
+    wall0 = wall_time()
+    wall_last = wall0
+    done = t >= t_end
+
+    do while (.not. done)
+      call solver_step(s, env, min(t_next_out, t_end) - t, dt)
+      step = step + 1
+      ! the last step lands on the output time exactly (dt was clipped to it)
+      if (abs(min(t_next_out, t_end) - (t + dt)) <= 1e-12_wp * max(1.0_wp, t_end)) then
+        t = min(t_next_out, t_end)
+      else
+        t = t + dt
+      end if
+      done = t >= t_end .or. (cfg%run%max_steps > 0 .and. step >= cfg%run%max_steps)
+
+      i_bad = find_bad_particle(s%parts)
+      if (par_any(env, i_bad > 0)) then
+        call report_blow_up(s, step, t, i_bad)
+        call timeseries_flush(run%ts, ok, errmsg)
+        status = 1
+        return
+      end if
+
+      if (mod(step, cfg%output%probe_every) == 0 .or. done) call sample(run, env, s, t, step, dt)
+      snap_now = t >= t_next_out - 1e-12_wp * max(1.0_wp, t_end) .or. done
+      if (snap_now) then
+        do while (t_next_out <= t + 1e-12_wp * max(1.0_wp, t_end))
+          t_next_out = t_next_out + cfg%output%dt
+        end do
+        call write_snapshot(cfg, env, s, run, t, step, ok)
+        if (.not. ok) then
+          status = 1
+          return
+        end if
+      end if
+      if (wall_time() - wall_last >= cfg%run%progress_interval .or. done) then
+        wall_last = wall_time()
+        call print_progress(env, step, t, dt, t_end, wall_last - wall0)
+      end if
+    end do
+
+    call print_end(env, s, run, step, wall_time() - wall0)
+    call stretching_summary(run%stretching, env, output_unit, t, &
+                            kinetic_energy(env, s%parts), run%ke_start, &
+                            probe_pressure(env, s%parts, s%rhs%kernel, run%probes(:, 1)))
+  end subroutine simulation_run
+
+  !> Translates the configuration into the solver's parameters and builds
+  !> the case's initial particles.
+  subroutine setup(cfg, s, run, dx)
+    type(config_t), intent(in) :: cfg
+    type(solver_t), intent(inout) :: s
+    type(run_t), intent(inout) :: run
+    real(wp), intent(out) :: dx
+    integer :: dim, kernel_kind, place
+    real(wp) :: rates(3)
+    dim = config_dim(cfg)
+    s%eos = eos_init(merge(EOS_TAIT, EOS_LINEAR, cfg%physics%eos == 'tait'), &
+                     cfg%physics%c0, cfg%physics%rho0, cfg%physics%gamma)
+    place = merge(PLACE_LATTICE, PLACE_RINGS, cfg%particles%placement == 'lattice')
+    select case (cfg%run%case_name)
+    case ('ellipsoid3d')
+      rates = cfg%ellipsoid3d%rates
+      call stretching_setup(run%stretching, 3, cfg%ellipsoid3d%radius, cfg%ellipsoid3d%a0, &
+                            rates, cfg%physics%rho0, s%eos, cfg%particles%n, place, s%parts, dx)
+    case default   ! circle2d
+      rates = [-1.0_wp, 1.0_wp, 0.0_wp]
+      call stretching_setup(run%stretching, 2, cfg%circle2d%radius, cfg%circle2d%a0, &
+                            rates, cfg%physics%rho0, s%eos, cfg%particles%n, place, s%parts, dx)
+    end select
+    select case (cfg%numerics%kernel)
+    case ('cubic_spline')
+      kernel_kind = KERNEL_CUBIC_SPLINE
+    case ('gaussian')
+      kernel_kind = KERNEL_GAUSSIAN
+    case default
+      kernel_kind = KERNEL_WENDLAND_C2
+    end select
+    s%rhs%dim = dim
+    s%rhs%kernel = kernel_init(kernel_kind, dim, cfg%particles%h_over_dx * dx)
+    s%rhs%c0 = cfg%physics%c0
+    s%rhs%rho0 = cfg%physics%rho0
+    s%rhs%alpha = cfg%numerics%alpha
+    s%rhs%delta = cfg%numerics%delta
+    select case (cfg%numerics%viscosity)
+    case ('none')
+      s%rhs%viscosity = VISC_NONE
+    case ('monaghan')
+      s%rhs%viscosity = VISC_MONAGHAN
+    case default
+      s%rhs%viscosity = VISC_DELTA
+    end select
+    select case (cfg%numerics%diffusion)
+    case ('none')
+      s%rhs%diffusion = DIFF_NONE
+    case ('antuono')
+      s%rhs%diffusion = DIFF_ANTUONO
+    case default
+      s%rhs%diffusion = DIFF_MOLTENI
+    end select
+    s%scheme = merge(SCHEME_PC2, SCHEME_RK4, cfg%numerics%integrator == 'pc2')
+    s%cfl = cfg%numerics%cfl
+    s%cfl_force = cfg%numerics%cfl_force
+    s%cfl_visc = cfg%numerics%cfl_visc
+    s%skin = cfg%numerics%skin * s%rhs%kernel%h
+    run%n_probes = cfg%output%n_probes
+    run%probes = cfg%output%probes
+    if (dim == 2) run%probes(3, :) = 0
+  end subroutine setup
+
+  function column_names(run, dim) result(names)
+    type(run_t), intent(in) :: run
+    integer, intent(in) :: dim
+    character(len=32), allocatable :: names(:), case_names(:)
+    character(len=1), parameter :: ax(3) = ['x', 'y', 'z']
+    character(len=8) :: num
+    integer :: k
+    names = [character(len=32) :: 'time', 'step', 'dt', 'kinetic_energy', 'mass']
+    names = [character(len=32) :: names, ('momentum_' // ax(k), k = 1, dim)]
+    do k = 1, run%n_probes
+      write(num, '(i0)') k
+      names = [character(len=32) :: names, 'p_probe_' // trim(num)]
+    end do
+    call stretching_columns(run%stretching, case_names)
+    names = [character(len=32) :: names, case_names]
+  end function column_names
+
+  !> One row of the time series.
+  subroutine sample(run, env, s, t, step, dt)
+    type(run_t), intent(inout) :: run
+    type(parallel_env_t), intent(in) :: env
+    type(solver_t), intent(in) :: s
+    real(wp), intent(in) :: t, dt
+    integer, intent(in) :: step
+    real(wp), allocatable :: row(:), case_values(:)
+    real(wp) :: mom(3), p_probe(16), p_centre
+    integer :: k, dim
+    dim = s%parts%dim
+    mom = total_momentum(env, s%parts)
+    p_probe = 0
+    do k = 1, run%n_probes
+      p_probe(k) = probe_pressure(env, s%parts, s%rhs%kernel, run%probes(:, k))
+    end do
+    p_centre = probe_pressure(env, s%parts, s%rhs%kernel, [0.0_wp, 0.0_wp, 0.0_wp])
+    call stretching_sample(run%stretching, env, t, s%parts, p_centre, case_values)
+    row = [t, real(step, wp), dt, kinetic_energy(env, s%parts), total_mass(env, s%parts), &
+           mom(1:dim), p_probe(1:run%n_probes), case_values]
+    call timeseries_add(run%ts, row)
+  end subroutine sample
+
+  !> Snapshot number run%n_snapshots at time t, with the case's exact fields,
+  !> then the time series is flushed so both describe the same moment.
+  subroutine write_snapshot(cfg, env, s, run, t, step, ok)
+    type(config_t), intent(in) :: cfg
+    type(parallel_env_t), intent(in) :: env
+    type(solver_t), intent(in) :: s
+    type(run_t), intent(inout) :: run
+    real(wp), intent(in) :: t
+    integer, intent(in) :: step
+    logical, intent(out) :: ok
+    character(len=32), allocatable :: names(:)
+    real(wp), allocatable :: vectors(:, :, :), scalars(:, :)
+    type(snapshot_field_t), allocatable :: extra(:)
+    character(len=:), allocatable :: errmsg
+    integer :: k, nv, n
+    ok = .true.
+    if (cfg%output%snapshots) then
+      n = s%parts%n
+      call stretching_fields(run%stretching, t, s%parts, names, vectors, scalars)
+      nv = size(vectors, 3)
+      allocate(extra(size(names)))
+      do k = 1, size(names)
+        extra(k)%name = trim(names(k))
+        if (k <= nv) then
+          extra(k)%v = vectors(:, :, k)
+        else
+          extra(k)%s = scalars(:, k - nv)
+        end if
+      end do
+      call snapshot_write(env%comm, join_path(run%dir, snapshot_filename(run%n_snapshots)), &
+                          t, step, s%parts%dim, trim(cfg%run%case_name), n, s%parts%id, &
+                          s%parts%x, s%parts%u, s%parts%rho, s%parts%p, s%parts%m, ok, errmsg, &
+                          extra=extra, &
+                          attr_names=[character(len=32) :: 'semi_axes_exact_1', &
+                                      'semi_axes_exact_2', 'semi_axes_exact_3', 'p_centre_exact'], &
+                          attr_values=[run%stretching%ex%a, &
+                                       centre_exact(run)], &
+                          index=run%xdmf)
+      if (.not. ok) then
+        if (env%rank == 0) write(error_unit, '(a)') 'sph: error: ' // errmsg
+        return
+      end if
+      run%n_snapshots = run%n_snapshots + 1
+    end if
+    call timeseries_flush(run%ts, ok, errmsg)
+    if (.not. ok .and. env%rank == 0) write(error_unit, '(a)') 'sph: error: ' // errmsg
+  end subroutine write_snapshot
+
+  function centre_exact(run) result(p)
+    type(run_t), intent(in) :: run
+    real(wp) :: p
+    associate(ex => run%stretching%ex)
+      p = ex%rho * sum(ex%alpha(1:ex%dim)**2) / (2 * sum(1 / ex%a(1:ex%dim)**2))
+    end associate
+  end function centre_exact
+
+  !> Writes the effective configuration beside the outputs (atomically).
+  subroutine echo_input(cfg, path, ok, errmsg)
+    type(config_t), intent(in) :: cfg
+    character(len=*), intent(in) :: path
+    logical, intent(out) :: ok
+    character(len=:), allocatable, intent(out) :: errmsg
+    character(len=:), allocatable :: tmp
+    integer :: u, ios
+    character(len=256) :: msg
+    tmp = temp_path(path)
+    open(newunit=u, file=tmp, status='replace', action='write', iostat=ios, iomsg=msg)
+    ok = ios == 0
+    if (.not. ok) then
+      errmsg = 'cannot write ' // tmp // ': ' // trim(msg)
+      return
+    end if
+    call config_echo(cfg, u)
+    close(u)
+    call rename_file(tmp, path, ok, errmsg)
+  end subroutine echo_input
+
+  !> Collective check of a local ok flag: rank 0 prints the message of a
+  !> failure; returns .true. when every rank succeeded.
+  function par_any_fail(env, ok, errmsg) result(all_ok)
+    type(parallel_env_t), intent(in) :: env
+    logical, intent(in) :: ok
+    character(len=*), intent(in) :: errmsg
+    logical :: all_ok
+    all_ok = .not. par_any(env, .not. ok)
+    if (.not. ok) write(error_unit, '(a)') 'sph: error: ' // errmsg
+  end function par_any_fail
+
+  subroutine print_start(cfg, env, s, run, dx, dt)
+    type(config_t), intent(in) :: cfg
+    type(parallel_env_t), intent(in) :: env
+    type(solver_t), intent(in) :: s
+    type(run_t), intent(in) :: run
+    real(wp), intent(in) :: dx, dt
+    real(wp) :: pairs
+    pairs = par_sum(env, real(s%nl%n_pairs, wp))
+    if (env%rank /= 0) return
+    write(output_unit, '(a)') 'sph: case ' // trim(cfg%run%case_name) // ', output in ' // run%dir
+    write(output_unit, '(a,i0,a,i0,a,es10.3,a,es10.3,a,f5.2,a)') '  particles ', run%n_global, &
+      '  dim ', s%parts%dim, '  dx ', dx, '  h ', s%rhs%kernel%h, '  (h/dx ', &
+      cfg%particles%h_over_dx, ')'
+    write(output_unit, '(a,f8.2,a,f6.4,a,f6.3,a)') '  c0 ', s%rhs%c0, '  Mach ', &
+      s%umax / s%rhs%c0, '  pairs per particle within list radius ', &
+      2 * pairs / run%n_global, ''
+    write(output_unit, '(a)') '  kernel ' // trim(cfg%numerics%kernel) // ', integrator ' // &
+      trim(cfg%numerics%integrator) // ', viscosity ' // trim(cfg%numerics%viscosity) // &
+      ', diffusion ' // trim(cfg%numerics%diffusion)
+    write(output_unit, '(a,es10.3,a,es10.3,a,es10.3,a,es10.3,a)') '  dt ', dt, &
+      ' = min(acoustic ', s%dt_cfl, ', force ', s%dt_force, ', viscous ', s%dt_visc, ')'
+    write(output_unit, '(a,f10.4,a,i0,a)') '  end time ', cfg%run%t_end, ', about ', &
+      nint(cfg%run%t_end / dt), ' steps'
+    flush(output_unit)
+  end subroutine print_start
+
+  subroutine print_progress(env, step, t, dt, t_end, wall)
+    type(parallel_env_t), intent(in) :: env
+    integer, intent(in) :: step
+    real(wp), intent(in) :: t, dt, t_end, wall
+    real(wp) :: eta
+    if (env%rank /= 0) return
+    eta = 0
+    if (t > 0) eta = wall * (t_end - t) / t
+    write(output_unit, '(a,i8,a,f10.5,a,es10.3,a,f9.1,a,f9.1,a)') 'step ', step, '  t ', t, &
+      '  dt ', dt, '  wall ', wall, ' s  ETA ', eta, ' s'
+    flush(output_unit)
+  end subroutine print_progress
+
+  subroutine print_end(env, s, run, steps, wall)
+    type(parallel_env_t), intent(in) :: env
+    type(solver_t), intent(in) :: s
+    type(run_t), intent(in) :: run
+    integer, intent(in) :: steps
+    real(wp), intent(in) :: wall
+    if (env%rank /= 0) return
+    write(output_unit, '(a,i0,a,f10.2,a,es10.3,a,es10.3,a)') 'done: ', steps, ' steps in ', &
+      wall, ' s, ', wall / max(steps, 1), ' s/step, ', &
+      real(run%n_global, wp) * steps / max(wall, 1e-9_wp), ' particle-steps/s'
+    write(output_unit, '(a,i0,a,i0,a,i0)') '  right-hand sides ', s%n_evaluations, &
+      ', list rebuilds ', s%n_rebuilds, ', snapshots ', run%n_snapshots
+    flush(output_unit)
+  end subroutine print_end
+
+  !> A state that is no longer finite: say where and when, on every rank
+  !> that has such a particle; earlier outputs stay as they were.
+  subroutine report_blow_up(s, step, t, i_bad)
+    type(solver_t), intent(in) :: s
+    integer, intent(in) :: step, i_bad
+    real(wp), intent(in) :: t
+    if (i_bad > 0) then
+      write(error_unit, '(a,i0,a,es12.5,a,i0,a,3es12.4,a,3es12.4,a,es12.4)') &
+        'sph: error: the state is no longer finite at step ', step, ', t = ', t, &
+        ': particle id ', s%parts%id(i_bad), ' at x = ', s%parts%x(:, i_bad), &
+        ', u = ', s%parts%u(:, i_bad), ', rho = ', s%parts%rho(i_bad)
+      write(error_unit, '(a)') '  (try a smaller numerics.cfl; outputs up to the last ' // &
+        'snapshot are intact)'
+    end if
+  end subroutine report_blow_up
+
+end module simulation
