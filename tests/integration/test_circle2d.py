@@ -1,0 +1,149 @@
+"""circle2d end to end: a short run against the exact solution, the output
+files it leaves, and the behaviour of the executable on its command line."""
+import math
+import pathlib
+import xml.etree.ElementTree as ET
+
+import h5py
+import numpy as np
+
+from common import ROOT, SPH, ENV, run_sph, scratch, read_timeseries
+
+_RUN = {}
+
+
+def short_run():
+    """circle2d with about 1,250 particles to t A0 = 0.5, snapshots every
+    0.25: run once, shared by the tests below."""
+    if "dir" not in _RUN:
+        d = scratch("circle2d") / "run"
+        p = run_sph(["input/circle2d.nml", "particles.n=1250", "run.t_end=0.5",
+                     "output.dt=0.25", f"output.dir={d}"])
+        assert p.returncode == 0, p.out
+        _RUN.update(dir=d, out=p.out)
+    return _RUN["dir"], _RUN["out"]
+
+
+def test_short_run_accuracy():
+    # Thresholds: 1.5x the errors measured at this resolution (N = 1,250,
+    # t A0 = 0.5), which sit on the first-order convergence line of the
+    # study N = 1,250 / 5,000 / 20,000 (RMS velocity 1.32 / 0.65 / 0.44 %,
+    # KE change -0.83 / -0.34 / -0.10 %, RMS position 0.39 / 0.18 / 0.12 %,
+    # semi-axes 0.11 / 0.16 / 0.19 %, time-averaged raw centre pressure
+    # 5.2 / 3.7 / 3.0 % of P(0)).  A regression of half an order of
+    # convergence, or a wrong factor anywhere, exceeds them.
+    d, _ = short_run()
+    ts = read_timeseries(d / "timeseries.csv")
+    last = {k: v[-1] for k, v in ts.items()}
+    assert abs(last["time"] - 0.5) < 1e-12, last["time"]
+    # the exact solution recorded beside the SPH values (DESIGN.md table)
+    assert abs(last["semi_axis_1_exact"] - 0.627053) < 2e-6
+    assert abs(last["p_centre_exact"] - 0.231943) < 2e-6
+    assert last["rms_velocity_error"] < 0.020, last["rms_velocity_error"]
+    assert last["rms_position_error"] < 0.006, last["rms_position_error"]
+    assert max(abs(last["semi_axis_1_error"]), abs(last["semi_axis_2_error"])) < 0.003
+    ke0 = ts["kinetic_energy"][0]
+    assert abs(last["kinetic_energy"] / ke0 - 1) < 0.0125, last["kinetic_energy"] / ke0
+    # the exact flow keeps the kinetic energy of these particles constant
+    kex = np.array(ts["kinetic_energy_exact"])
+    assert np.max(np.abs(kex / kex[0] - 1)) < 1e-9
+    # continuum KE of the patch is pi rho A0^2 R^4 / 4; the discrete one is
+    # within the particle density excess p/c0^2 (<= 0.5 %) and O(dx^2) of it
+    assert abs(kex[0] / (math.pi / 4) - 1) < 0.01
+    p = np.array(ts["p_probe_1"])
+    pe = np.array(ts["p_centre_exact"])
+    assert np.mean(np.abs(p - pe)) / 0.5 < 0.08
+
+
+def test_conservation():
+    # mass is carried by particles (exactly constant); the pair forces are
+    # antisymmetric, so momentum stays at its initial value (zero by
+    # symmetry) to round-off.
+    d, _ = short_run()
+    ts = read_timeseries(d / "timeseries.csv")
+    m = np.array(ts["mass"])
+    assert np.max(np.abs(m / m[0] - 1)) < 1e-13
+    assert abs(m[0] / math.pi - 1) < 0.01     # rho0 pi R^2, within p/c0^2
+    ke = max(ts["kinetic_energy"])
+    for k in ("momentum_x", "momentum_y"):
+        assert np.max(np.abs(ts[k])) < 1e-12 * math.sqrt(2 * ke * m[0]), k
+
+
+def test_snapshots():
+    d, out = short_run()
+    files = sorted(d.glob("snap_*.h5"))
+    assert [f.name for f in files] == ["snap_00000.h5", "snap_00001.h5", "snap_00002.h5"]
+    assert not list(d.glob(".*tmp*")) and not list(d.glob("*.tmp")), "temporary files left"
+    with h5py.File(files[0], "r") as f0, h5py.File(files[-1], "r") as f2:
+        assert abs(f0.attrs["time"]) < 1e-15 and abs(f2.attrs["time"] - 0.5) < 1e-12
+        assert int(f0.attrs["dim"]) == 2
+        n = f0["position"].shape[0]
+        assert f0["position"].shape == (n, 2) and f0["velocity"].shape == (n, 2)
+        for k in ("density", "pressure", "mass", "id"):
+            assert f2[k].shape == (n,), k
+        ids = np.sort(f2["id"][:])
+        assert np.array_equal(ids, np.arange(1, n + 1))
+        # at t = 0 the exact map is the identity and the velocity is exact
+        assert np.allclose(f0["position_exact"][:], f0["position"][:], atol=1e-15)
+        assert np.allclose(f0["velocity_exact"][:], f0["velocity"][:], atol=1e-14)
+        # exact positions lie on the exact ellipse's interior
+        a = f2.attrs["semi_axes_exact_1"]
+        b = f2.attrs["semi_axes_exact_2"]
+        xe = f2["position_exact"][:]
+        assert np.max((xe[:, 0] / a) ** 2 + (xe[:, 1] / b) ** 2) < 1
+        # u = (-A0 x, A0 y) at t = 0
+        x0 = f0["position"][:]
+        assert np.allclose(f0["velocity"][:], np.c_[-x0[:, 0], x0[:, 1]], atol=1e-14)
+    root = ET.parse(d / "snapshots.xdmf").getroot()
+    grids = [g for g in root.iter("Grid") if g.get("GridType") != "Collection"]
+    assert len(grids) == 3
+
+
+def test_progress_and_summary_printed():
+    _, out = short_run()
+    assert "step" in out and "ETA" in out and "dt" in out
+    assert "Errors against the exact solution" in out
+    assert "semi-axis x" in out and "RMS velocity error" in out
+
+
+def test_bad_input_writes_nothing():
+    d = scratch("badinput") / "never"
+    cases = [
+        (["numerics.cfl=-1"], ["&numerics", "cfl", "-1"]),
+        (["particles.n=abc"], ["particles.n", "abc", "integer"]),
+        (["numerics.cfll=1"], ["&numerics", "cfll", "cfl"]),
+        (["numerics.kernel=wendlnd"], ["&numerics", "kernel", "wendlnd"]),
+        (["numerix.cfl=1"], ["numerix"]),
+        (["physics.c0=1"], ["&physics", "c0"]),
+    ]
+    for extra, words in cases:
+        p = run_sph(["input/circle2d.nml", f"output.dir={d}"] + extra)
+        assert p.returncode != 0, extra
+        assert all(w in p.stderr for w in words), (extra, p.stderr)
+        assert not d.exists(), f"{extra}: the run directory was created"
+    p = run_sph(["input/does_not_exist.nml", f"output.dir={d}"])
+    assert p.returncode != 0 and "does_not_exist.nml" in p.stderr
+    assert not d.exists()
+
+
+def test_more_ranks_than_supported_refused():
+    d = scratch("ranks") / "never"
+    p = run_sph(["input/circle2d.nml", f"output.dir={d}", "particles.n=200"], np=2)
+    assert p.returncode != 0
+    assert "one rank" in p.stderr, p.stderr
+    assert not d.exists()
+
+
+def test_help_and_defaults():
+    p = run_sph(["--help"])
+    assert p.returncode == 0 and "usage" in p.stdout
+    p = run_sph(["--defaults"])
+    assert p.returncode == 0 and "&numerics" in p.stdout
+    # the printed defaults are a valid input file that runs
+    d = scratch("defaults")
+    (d / "defaults.nml").write_text(p.stdout)
+    p = run_sph([d / "defaults.nml", f"output.dir={d / 'run'}", "particles.n=300",
+                 "run.t_end=0.05"])
+    assert p.returncode == 0, p.out
+    assert (d / "run" / "timeseries.csv").exists()
+    assert (d / "run" / "input.nml").exists()
