@@ -7,7 +7,7 @@
 !> Contributions to halo copies (j > n) land in scratch slots and are ignored.
 module fluid_rhs
   use kinds, only: wp, i8
-  use kernels, only: kernel_t, kernel_f
+  use kernels, only: kernel_t, kernel_f_list
   use neighbours, only: neighbour_list_t
   implicit none
   private
@@ -46,21 +46,23 @@ contains
     type(neighbour_list_t), intent(in) :: nl
     real(wp), intent(out) :: grad_rho(3, ntot)
     real(wp), allocatable :: mm(:, :)   ! symmetric M: xx, yy, zz, xy, xz, yz
-    real(wp) :: xij(3), r2, f, g(3), vi, vj, drho, s2, inv(3, 3), det
-    integer :: i, j
-    integer(i8) :: k
+    real(wp), allocatable :: xl(:, :), r2l(:), fl(:)
+    integer, allocatable :: jl(:)
+    real(wp) :: xij(3), f, g(3), vi, vj, drho, s2, inv(3, 3), det, xx(6)
+    integer :: i, j, l, nn
     allocate(mm(6, ntot))
     mm = 0
     grad_rho = 0
     s2 = prm%kernel%support**2
+    call pair_buffers(nl, jl, xl, r2l, fl)
     do i = 1, n
       vi = m(i) / rho(i)
-      do k = nl%start(i), nl%start(i + 1) - 1
-        j = nl%nbr(k)
-        xij = x(:, i) - x(:, j)
-        r2 = xij(1)**2 + xij(2)**2 + xij(3)**2
-        if (r2 >= s2) cycle
-        f = kernel_f(prm%kernel, sqrt(r2))
+      call in_range_pairs(i, x, s2, nl, nn, jl, xl, r2l)
+      call kernel_f_list(prm%kernel, nn, r2l, fl)
+      do l = 1, nn
+        j = jl(l)
+        xij = xl(:, l)
+        f = fl(l)
         g = f * xij
         vj = m(j) / rho(j)
         drho = rho(j) - rho(i)
@@ -68,10 +70,10 @@ contains
         grad_rho(:, i) = grad_rho(:, i) + drho * vj * g
         grad_rho(:, j) = grad_rho(:, j) + drho * vi * g
         ! -F x_ij x_ij^T is the same for i and j
-        mm(:, i) = mm(:, i) - vj * f * [xij(1)**2, xij(2)**2, xij(3)**2, &
-                                       xij(1) * xij(2), xij(1) * xij(3), xij(2) * xij(3)]
-        mm(:, j) = mm(:, j) - vi * f * [xij(1)**2, xij(2)**2, xij(3)**2, &
-                                       xij(1) * xij(2), xij(1) * xij(3), xij(2) * xij(3)]
+        xx = -f * [xij(1)**2, xij(2)**2, xij(3)**2, &
+                   xij(1) * xij(2), xij(1) * xij(3), xij(2) * xij(3)]
+        mm(:, i) = mm(:, i) + vj * xx
+        mm(:, j) = mm(:, j) + vi * xx
       end do
     end do
     do i = 1, n
@@ -81,6 +83,45 @@ contains
     end do
     grad_rho(:, n + 1:ntot) = 0   ! halo values come from their owners
   end subroutine rhs_density_gradient
+
+  !> Work arrays for the in-range partners of one particle, sized by the
+  !> longest row of the list.
+  subroutine pair_buffers(nl, jl, xl, r2l, fl)
+    type(neighbour_list_t), intent(in) :: nl
+    integer, allocatable, intent(out) :: jl(:)
+    real(wp), allocatable, intent(out) :: xl(:, :), r2l(:), fl(:)
+    integer :: longest
+    longest = 1
+    if (nl%n > 0) longest = max(1, int(maxval(nl%start(2:nl%n + 1) - nl%start(1:nl%n))))
+    allocate(jl(longest + 1), xl(3, longest + 1), r2l(longest + 1), fl(longest + 1))
+  end subroutine pair_buffers
+
+  !> The partners j of particle i in the list that lie within the kernel
+  !> support (r^2 < s2), with x_ij and r^2: the list's skin makes most of
+  !> the rest fall outside, so filtering first saves the kernel work.
+  pure subroutine in_range_pairs(i, x, s2, nl, nn, jl, xl, r2l)
+    integer, intent(in) :: i
+    real(wp), intent(in) :: x(:, :), s2
+    type(neighbour_list_t), intent(in) :: nl
+    integer, intent(out) :: nn
+    integer, intent(inout) :: jl(:)
+    real(wp), intent(inout) :: xl(:, :), r2l(:)
+    real(wp) :: xij(3), r2
+    integer :: j
+    integer(i8) :: k
+    ! branchless compaction: always store in the next free slot, advance
+    ! only when in range (the test is too random for branch prediction)
+    nn = 0
+    do k = nl%start(i), nl%start(i + 1) - 1
+      j = nl%nbr(k)
+      xij = x(:, i) - x(:, j)
+      r2 = xij(1)**2 + xij(2)**2 + xij(3)**2
+      jl(nn + 1) = j
+      xl(:, nn + 1) = xij
+      r2l(nn + 1) = r2
+      nn = nn + merge(1, 0, r2 < s2)
+    end do
+  end subroutine in_range_pairs
 
   !> Smallest eigenvalue of the symmetric dim x dim matrix stored as (xx, yy,
   !> zz, xy, xz, yz): closed form in 2D, the trigonometric form in 3D.
@@ -154,11 +195,12 @@ contains
     real(wp), intent(in) :: grad_rho(3, ntot)
     type(neighbour_list_t), intent(in) :: nl
     real(wp), intent(out) :: drho(ntot), du(3, ntot)
-    real(wp) :: xij(3), uji(3), g(3), r2, r, f, s2, h, eta2
-    real(wp) :: div, dterm, a, coef_i, coef_j, mij, coef_visc, diff_coef, xu
-    real(wp) :: drho_i, du_i(3), rhoi, mi
-    integer :: i, j
-    integer(i8) :: k
+    real(wp) :: xij(3), uji(3), g(3), r2, f, s2, h, eta2
+    real(wp) :: div, dterm, a, coef_visc, diff_coef, xu, vi, vj, iri, irj
+    real(wp) :: drho_i, du_i(3), rhoi, pi_
+    real(wp), allocatable :: vol(:), inv_rho(:), xl(:, :), r2l(:), fl(:)
+    integer, allocatable :: jl(:)
+    integer :: i, j, l, nn
     logical :: antuono
     h = prm%kernel%h
     s2 = prm%kernel%support**2
@@ -168,21 +210,30 @@ contains
     diff_coef = 0
     if (prm%diffusion /= DIFF_NONE) diff_coef = prm%delta * h * prm%c0
     antuono = prm%diffusion == DIFF_ANTUONO
+    ! per-particle V = m/rho and 1/rho: no division inside the pair loop
+    allocate(vol(ntot), inv_rho(ntot))
+    inv_rho = 1 / rho(1:ntot)
+    vol = m(1:ntot) * inv_rho
+    call pair_buffers(nl, jl, xl, r2l, fl)
     drho = 0
     du = 0
     do i = 1, n
+      call in_range_pairs(i, x, s2, nl, nn, jl, xl, r2l)
+      call kernel_f_list(prm%kernel, nn, r2l, fl)
       rhoi = rho(i)
-      mi = m(i)
+      iri = inv_rho(i)
+      vi = vol(i)
+      pi_ = p(i)
       drho_i = 0
       du_i = 0
-      do k = nl%start(i), nl%start(i + 1) - 1
-        j = nl%nbr(k)
-        xij = x(:, i) - x(:, j)
-        r2 = xij(1)**2 + xij(2)**2 + xij(3)**2
-        if (r2 >= s2) cycle
-        r = sqrt(r2)
-        f = kernel_f(prm%kernel, r)
+      do l = 1, nn
+        j = jl(l)
+        xij = xl(:, l)
+        r2 = r2l(l)
+        f = fl(l)
         g = f * xij
+        vj = vol(j)
+        irj = inv_rho(j)
         uji = u(:, j) - u(:, i)
         ! (E1): u_ji . g is the pair's velocity divergence
         div = uji(1) * g(1) + uji(2) * g(2) + uji(3) * g(3)
@@ -191,11 +242,12 @@ contains
         dterm = -2 * (rho(j) - rhoi) * f
         if (antuono) dterm = dterm - sum((grad_rho(:, i) + grad_rho(:, j)) * g)
         dterm = diff_coef * dterm
-        drho_i = drho_i + (-rhoi * div + dterm) * m(j) / rho(j)
-        drho(j) = drho(j) + (-rho(j) * div - dterm) * mi / rhoi
-        ! (E4) + (E5): du_i = A m_j/(rho_i rho_j) g, du_j = -A m_i/(rho_i rho_j) g
+        drho_i = drho_i + (-rhoi * div + dterm) * vj
+        drho(j) = drho(j) + (-rho(j) * div - dterm) * vi
+        ! (E4) + (E5): du_i = A V_j/rho_i g, du_j = -A V_i/rho_j g, with
+        ! A = -(p_i + p_j) + the viscous term
         xu = -(uji(1) * xij(1) + uji(2) * xij(2) + uji(3) * xij(3))   ! u_ji . (x_j - x_i)
-        a = -(p(i) + p(j))
+        a = -(pi_ + p(j))
         select case (prm%viscosity)
         case (VISC_DELTA)
           a = a + coef_visc * xu / r2
@@ -205,11 +257,8 @@ contains
           if (xu < 0) a = a + prm%alpha * prm%c0 * h * xu / (r2 + eta2) &
                           / (0.5_wp * (rhoi + rho(j))) * rhoi * rho(j)
         end select
-        mij = 1 / (rhoi * rho(j))
-        coef_i = a * m(j) * mij
-        coef_j = -a * mi * mij
-        du_i = du_i + coef_i * g
-        du(:, j) = du(:, j) + coef_j * g
+        du_i = du_i + (a * vj * iri) * g
+        du(:, j) = du(:, j) - (a * vi * irj) * g
       end do
       drho(i) = drho(i) + drho_i
       du(:, i) = du(:, i) + du_i

@@ -9,8 +9,9 @@ module neighbours
   public :: neighbour_list_t, cell_sort_permutation, neighbour_build, max_displacement
 
   !> Half list in compressed rows: owned particle i has the partners
-  !> nbr(start(i):start(i+1)-1), each j > i (halo copies have j > n), so each
-  !> pair within `radius` at build time appears exactly once.
+  !> nbr(start(i):start(i+1)-1); each pair within `radius` at build time
+  !> appears exactly once, in the row of an owned particle (a partner j > n
+  !> is a halo copy).
   type :: neighbour_list_t
     real(wp) :: radius = 0
     integer :: n = 0                      !< owned particles the rows cover
@@ -125,25 +126,29 @@ contains
     perm = order
   end subroutine cell_sort_permutation
 
-  !> Builds the half list of all pairs (i <= n, j > i) closer than `radius`
-  !> among the n owned and ntot - n halo particles.
+  !> Builds the half list of all pairs (i <= n, j) closer than `radius`
+  !> among the n owned and ntot - n halo particles, each pair once: from i's
+  !> own cell the partners j > i, from the cells after it in the stencil
+  !> (lexicographically positive offsets) every partner, and from the cells
+  !> before it only halo copies (they have no row of their own).
   subroutine neighbour_build(nl, dim, n, ntot, x, radius)
     type(neighbour_list_t), intent(inout) :: nl
     integer, intent(in) :: dim, n, ntot
     real(wp), intent(in) :: x(3, ntot), radius
     type(cell_grid_t) :: g
     integer, allocatable :: cell(:), cstart(:), order(:), tmp(:)
-    integer(i8) :: np, cap
-    integer :: i, j, s, c, k
-    real(wp) :: r2max, d(3)
+    integer(i8) :: np, cap, row_max
+    integer :: i, j, s, c, k, mid
+    real(wp) :: r2max, d(3), xi(3)
     nl%radius = radius
     nl%n = n
     r2max = radius**2
     g = make_grid(dim, ntot, x, radius)
     call bin_particles(g, ntot, x, cell, cstart, order)
+    mid = (g%n_stencil + 1) / 2      ! the cell itself
     if (allocated(nl%start)) deallocate(nl%start)
     allocate(nl%start(n + 1))
-    cap = max(int(nl%n_pairs, i8) + int(nl%n_pairs, i8) / 4, 16_i8 * n, 64_i8)
+    cap = max(nl%n_pairs + nl%n_pairs / 4, 16_i8 * n, 64_i8)
     if (allocated(nl%nbr)) then
       if (size(nl%nbr, kind=i8) < cap) deallocate(nl%nbr)
     end if
@@ -151,22 +156,50 @@ contains
     np = 0
     do i = 1, n
       nl%start(i) = np + 1
-      do s = 1, g%n_stencil
+      xi = x(:, i)
+      ! room for every candidate of this row (the compaction below writes
+      ! one slot past the last pair)
+      row_max = 1
+      do s = mid, g%n_stencil
+        c = cell(i) + g%stencil(s)
+        row_max = row_max + cstart(c + 1) - cstart(c)
+      end do
+      if (ntot > n) row_max = row_max + ntot - n
+      if (np + row_max > size(nl%nbr, kind=i8)) then
+        allocate(tmp(max(size(nl%nbr, kind=i8) * 3 / 2, np + row_max)))
+        tmp(1:np) = nl%nbr(1:np)
+        call move_alloc(tmp, nl%nbr)
+      end if
+      ! own cell: partners after i (branchless compaction, as in the
+      ! right-hand side: the in-range test is too random to predict)
+      c = cell(i)
+      do k = cstart(c), cstart(c + 1) - 1
+        j = order(k)
+        d = xi - x(:, j)
+        nl%nbr(np + 1) = j
+        np = np + merge(1, 0, j > i .and. d(1)**2 + d(2)**2 + d(3)**2 < r2max)
+      end do
+      do s = mid + 1, g%n_stencil
         c = cell(i) + g%stencil(s)
         do k = cstart(c), cstart(c + 1) - 1
           j = order(k)
-          if (j <= i) cycle
-          d = x(:, i) - x(:, j)
-          if (d(1)**2 + d(2)**2 + d(3)**2 >= r2max) cycle
-          np = np + 1
-          if (np > size(nl%nbr, kind=i8)) then
-            allocate(tmp(size(nl%nbr, kind=i8) * 3 / 2 + 64))
-            tmp(1:np - 1) = nl%nbr(1:np - 1)
-            call move_alloc(tmp, nl%nbr)
-          end if
-          nl%nbr(np) = j
+          d = xi - x(:, j)
+          nl%nbr(np + 1) = j
+          np = np + merge(1, 0, d(1)**2 + d(2)**2 + d(3)**2 < r2max)
         end do
       end do
+      if (ntot > n) then
+        do s = 1, mid - 1
+          c = cell(i) + g%stencil(s)
+          do k = cstart(c), cstart(c + 1) - 1
+            j = order(k)
+            if (j <= n) cycle
+            d = xi - x(:, j)
+            nl%nbr(np + 1) = j
+            np = np + merge(1, 0, d(1)**2 + d(2)**2 + d(3)**2 < r2max)
+          end do
+        end do
+      end if
     end do
     nl%start(n + 1) = np + 1
     nl%n_pairs = np

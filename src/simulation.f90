@@ -195,7 +195,7 @@ contains
     s%cfl = cfg%numerics%cfl
     s%cfl_force = cfg%numerics%cfl_force
     s%cfl_visc = cfg%numerics%cfl_visc
-    s%skin = cfg%numerics%skin * s%rhs%kernel%h
+    s%skin_min = cfg%numerics%skin * s%rhs%kernel%h
     run%n_probes = cfg%output%n_probes
     run%probes = cfg%output%probes
     if (dim == 2) run%probes(3, :) = 0

@@ -24,7 +24,8 @@ module solver
     type(neighbour_list_t) :: nl
     integer :: scheme = SCHEME_RK4
     real(wp) :: cfl = 1.5_wp, cfl_force = 0.25_wp, cfl_visc = 0.125_wp
-    real(wp) :: skin = 0          !< absolute skin distance of the list
+    real(wp) :: skin_min = 0      !< smallest skin distance of the list (absolute)
+    real(wp) :: skin = 0          !< skin of the current list
     real(wp) :: nu = 0            !< kinematic viscosity equivalent to the artificial one
     real(wp), allocatable :: drho(:), du(:, :), grad_rho(:, :)
     real(wp), allocatable :: xs(:, :), us(:, :), rhos(:)   !< state at the start of a step
@@ -46,6 +47,7 @@ contains
     allocate(s%drho(cap), s%du(3, cap), s%grad_rho(3, cap))
     allocate(s%xs(3, cap), s%us(3, cap), s%rhos(cap), s%xa(3, cap), s%ua(3, cap), s%rhoa(cap))
     s%drho = 0; s%du = 0; s%grad_rho = 0
+    s%skin = s%skin_min
     ! nu = alpha h c0 / (2 (dim + 2)) for the delta-SPH form (E5: alpha h c0/8 in 2D)
     s%nu = 0
     if (s%rhs%viscosity /= VISC_NONE) &
@@ -111,22 +113,30 @@ contains
   end subroutine solver_time_step
 
   !> Advances the state by one step of at most dt_limit; returns the dt taken.
-  !> The list is rebuilt first when a particle could otherwise move more than
-  !> half the skin before the end of the step (then a pair outside the list
-  !> could come within the kernel support).
+  !> A pair outside the list can come within the kernel support only after
+  !> one of its particles has moved half the skin.  A step moves a particle
+  !> at most about dt_cfl Umax = cfl h Umax/(c0 + Umax) (1.25 covers the
+  !> speed-up within the step), so the list is rebuilt when the displacement
+  !> since the last build plus that reach could exceed half the skin, and a
+  !> rebuild widens the skin when needed so that the list always covers at
+  !> least the coming step (numerics.skin is the minimum).
   subroutine solver_step(s, env, dt_limit, dt)
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
     real(wp), intent(in) :: dt_limit
     real(wp), intent(out) :: dt
-    real(wp) :: moved, reach
+    real(wp) :: moved, reach, umax
     integer :: n
     n = s%parts%n
-    ! a step moves a particle at most about cfl h Umax/(c0 + Umax); 1.25 covers
-    ! the speed-up within the step
     moved = par_max(env, max_displacement(s%nl, s%parts%x))
-    reach = moved + 1.25_wp * s%cfl * s%rhs%kernel%h * s%umax / (s%rhs%c0 + s%umax)
-    if (2 * reach >= s%skin) call solver_rebuild(s)
+    umax = 0
+    if (n > 0) umax = sqrt(maxval(sum(s%parts%u(:, 1:n)**2, dim=1)))
+    umax = par_max(env, umax)
+    reach = 1.25_wp * s%cfl * s%rhs%kernel%h * umax / (s%rhs%c0 + umax)
+    if (2 * (moved + reach) >= s%skin) then
+      s%skin = max(s%skin_min, 2.2_wp * reach)
+      call solver_rebuild(s)
+    end if
 
     call solver_evaluate(s)
     call solver_time_step(s, env, dt)

@@ -35,36 +35,40 @@ contains
     if (dim == 2) x(3, :) = 0
   end subroutine random_cloud
 
-  !> Every pair (i <= n, j > i) within r appears exactly once in the list,
-  !> and nothing else does.
+  !> Every pair with at least one owned particle (index <= n) within r
+  !> appears exactly once in the list, in the row of an owned particle, and
+  !> nothing else does.
   subroutine check_against_brute_force(dim, n, ntot, x, r, label)
     integer, intent(in) :: dim, n, ntot
     real(wp), intent(in) :: x(3, ntot), r
     character(len=*), intent(in) :: label
     type(neighbour_list_t) :: nl
-    logical, allocatable :: listed(:)
+    integer, allocatable :: seen(:, :)
     integer :: i, j, nbrute, nmissing, nextra
     integer(i8) :: k
     call neighbour_build(nl, dim, n, ntot, x, r)
-    allocate(listed(ntot))
-    nbrute = 0; nmissing = 0; nextra = 0
+    ! count[i, j] over the list, symmetric, against brute force
+    allocate(seen(ntot, ntot))
+    seen = 0
+    nextra = 0
     do i = 1, n
-      listed = .false.
       do k = nl%start(i), nl%start(i + 1) - 1
         j = nl%nbr(k)
-        if (j <= i .or. j > ntot) then
+        if (j < 1 .or. j > ntot .or. j == i) then
           nextra = nextra + 1
-        else if (listed(j)) then
-          nextra = nextra + 1     ! a duplicate
         else
-          listed(j) = .true.
+          seen(min(i, j), max(i, j)) = seen(min(i, j), max(i, j)) + 1
         end if
       end do
+    end do
+    nbrute = 0; nmissing = 0
+    do i = 1, n
       do j = i + 1, ntot
         if (sum((x(:, i) - x(:, j))**2) < r**2) then
           nbrute = nbrute + 1
-          if (.not. listed(j)) nmissing = nmissing + 1
-        else if (listed(j)) then
+          if (seen(i, j) == 0) nmissing = nmissing + 1
+          if (seen(i, j) > 1) nextra = nextra + seen(i, j) - 1
+        else if (seen(i, j) > 0) then
           nextra = nextra + 1
         end if
       end do
