@@ -36,8 +36,9 @@ vpath %.f90 src tests tests/unit
 .PHONY: all sph debug test unit bench validate clean
 all: sph
 
+# copy then rename: replaces ./sph atomically, even while it is running
 sph: $(BUILD)/sph
-	cp $< $@
+	cp $< $@.tmp && mv -f $@.tmp $@
 
 $(BUILD)/sph: $(LIB_OBJ) $(BUILD)/main.o
 	$(FC) $(FFLAGS) -o $@ $^ $(LDLIBS)

@@ -210,7 +210,7 @@ module config
     var_t(G_NUMERICS, 'delta', T_REAL, SCALAR, LO_GE, HI_LE, 0.0_wp, 1.0_wp, CH_NONE, '', &
           'density diffusion coefficient'), &
     var_t(G_NUMERICS, 'skin', T_REAL, SCALAR, LO_GE, HI_LE, 0.0_wp, 2.0_wp, CH_NONE, '', &
-          'neighbour-list skin in units of h'), &
+          'smallest neighbour-list skin in units of h (widened when a step needs more)'), &
     var_t(G_OUTPUT, 'dir', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
           'a non-empty path of at most 255 characters', 'run directory'), &
     var_t(G_OUTPUT, 'dt', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &

@@ -2,7 +2,7 @@
 !>   mpirun -np P ./sph input/<case>.nml [group.variable=value ...]
 program sph
   use, intrinsic :: iso_fortran_env, only: output_unit, error_unit
-  use config, only: config_t, config_load, config_write_defaults
+  use config, only: config_t, config_load, config_write_defaults, config_write_help
   use parallel_env, only: parallel_env_t, par_start, par_stop
   use simulation, only: simulation_run
   implicit none
@@ -72,6 +72,8 @@ contains
     write(u, '(a)') '  ./sph input/circle2d.nml numerics.cfl=0.5 particles.n=5000 output.dir=runs/x'
     write(u, '(a)') 'Outputs go to output.dir: snap_NNNNN.h5 snapshots, snapshots.xdmf (open it'
     write(u, '(a)') 'in ParaView), timeseries.csv and the effective input, input.nml (doc/output.md).'
+    write(u, '(a)') ''
+    call config_write_help(u)
   end subroutine print_usage
 
 end program sph
