@@ -238,6 +238,8 @@ module config
 
   real(wp), parameter :: RATES_SUM_TOL = 1.0e-12_wp   !< incompressibility of the rates
   real(wp), parameter :: MACH_FACTOR = 3.0_wp          !< c0 >= MACH_FACTOR * max initial speed
+  real(wp), parameter :: RK4_CFL_MAX = 2.5_wp          !< stability limit of rk4 in cfl
+  real(wp), parameter :: PC2_CFL_MAX = 1.0_wp          !< stability limit of pc2 in cfl
 
   ! How an item read ended.
   integer, parameter :: ITEM_OK = 0, ITEM_UNKNOWN = 1, ITEM_FAILED = 2
@@ -1096,6 +1098,24 @@ contains
         return
       end if
     end associate
+
+    ! Stability of the time integrators in the acoustic CFL (measured on
+    ! circle2d, doc/numerics.md): rk4 is unaffected up to 2.4 and degrades
+    ! at 2.8; pc2 is fine at 1.0 and unstable from 1.1.
+    call origin_of(origins, path, 'numerics.cfl', origin, line)
+    if (c%numerics%integrator == 'pc2' .and. c%numerics%cfl > PC2_CFL_MAX) then
+      call fail(err, origin, '&numerics cfl = ' // real_str(c%numerics%cfl) // &
+                ' is too large for integrator = ''pc2''', line, &
+                ': allowed 0 < cfl <= ' // real_str(PC2_CFL_MAX) // &
+                ' (the predictor-corrector is unstable above it; rk4 allows up to ' // &
+                real_str(RK4_CFL_MAX) // ')')
+      return
+    else if (c%numerics%integrator == 'rk4' .and. c%numerics%cfl > RK4_CFL_MAX) then
+      call fail(err, origin, '&numerics cfl = ' // real_str(c%numerics%cfl) // &
+                ' is too large for integrator = ''rk4''', line, &
+                ': allowed 0 < cfl <= ' // real_str(RK4_CFL_MAX))
+      return
+    end if
 
     ! Weak compressibility: the Mach number must stay small.
     call case_speed(c, speed, formula)

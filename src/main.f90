@@ -36,7 +36,7 @@ program sph
       else if (len(arg) > len(overrides)) then
         call fail('command-line override too long: ' // arg)
       else
-        overrides = [overrides, arg]
+        overrides = [character(len=len(overrides)) :: overrides, arg]
       end if
     end select
     deallocate(arg)

@@ -112,6 +112,7 @@ def test_bad_input_writes_nothing():
         (["numerics.cfl=-1"], ["&numerics", "cfl", "-1"]),
         (["particles.n=abc"], ["particles.n", "abc", "integer"]),
         (["numerics.cfll=1"], ["&numerics", "cfll", "cfl"]),
+        (["numerics.integrator=pc2"], ["&numerics", "cfl", "1.5", "pc2", "1.0"]),
         (["numerics.kernel=wendlnd"], ["&numerics", "kernel", "wendlnd"]),
         (["numerix.cfl=1"], ["numerix"]),
         (["physics.c0=1"], ["&physics", "c0"]),
