@@ -7,23 +7,25 @@
 !> m = rho times the particle's area (volume).
 module case_stretching
   use kinds, only: wp
+  use case_base, only: case_t, case_fields_t
+  use config, only: config_t
+  use kernels, only: kernel_t
   use particles, only: particles_t, particles_allocate
   use placement, only: place_ball, ball_spacing
   use eos, only: eos_t, eos_density
   use exact_ellipse, only: ellipse_exact_t, ellipse_exact_init, ellipse_exact_at, &
                            ellipse_centre_pressure, ellipse_map, ellipse_velocity, &
                            ellipse_pressure
-  use diagnostics, only: fitted_semi_axes
+  use placement, only: PLACE_RINGS, PLACE_LATTICE
+  use diagnostics, only: fitted_semi_axes, probe_pressure, kinetic_energy
   use parallel_env, only: parallel_env_t, par_sum_array
   use, intrinsic :: ieee_arithmetic, only: ieee_is_nan
   implicit none
   private
-  public :: stretching_t, stretching_setup, stretching_columns, stretching_sample, &
-            stretching_fields, stretching_summary
+  public :: stretching_t
 
   !> The case, its exact solution and the running means of its errors.
-  type :: stretching_t
-    integer :: dim = 2
+  type, extends(case_t) :: stretching_t
     real(wp) :: radius = 1, a0 = 1, rho0 = 1
     real(wp) :: rates(3) = 0            !< alpha_k(0) / A0
     real(wp) :: p0 = 0                  !< P(0), exact centre pressure at t = 0
@@ -33,34 +35,49 @@ module case_stretching
     real(wp) :: sum_axis_err = 0, sum_pos_err = 0, sum_vel_err = 0, sum_p_err = 0
     integer :: n_p_samples = 0
     ! the last sample's errors
-    real(wp) :: axis_err(3) = 0, pos_err = 0, vel_err = 0, ke = 0, ke_exact = 0, ke_start = 0
+    real(wp) :: axis_err(3) = 0, pos_err = 0, vel_err = 0, ke_exact = 0, ke_start = -1
+  contains
+    procedure :: setup => stretching_setup
+    procedure :: columns => stretching_columns
+    procedure :: sample => stretching_sample
+    procedure :: fields => stretching_fields
+    procedure :: summary => stretching_summary
   end type stretching_t
 
 contains
 
   !> Places the particles and sets their initial state (one rank holds all
-  !> until the domain decomposition distributes them).
-  subroutine stretching_setup(st, dim, radius, a0, rates, rho0, eos, n_target, &
-                              placement_kind, parts, dx)
-    type(stretching_t), intent(out) :: st
-    integer, intent(in) :: dim, n_target, placement_kind
-    real(wp), intent(in) :: radius, a0, rates(3), rho0
+  !> until the domain decomposition distributes them).  circle2d: rates
+  !> (-1, 1); ellipsoid3d: &ellipsoid3d rates, in units of A0.
+  subroutine stretching_setup(self, cfg, eos, parts, dx)
+    class(stretching_t), intent(inout) :: self
+    type(config_t), intent(in) :: cfg
     type(eos_t), intent(in) :: eos
     type(particles_t), intent(inout) :: parts
     real(wp), intent(out) :: dx
     real(wp), allocatable :: x(:, :), vol(:)
     real(wp) :: p
-    integer :: i, np
-    st%dim = dim
-    st%radius = radius
-    st%a0 = a0
-    st%rho0 = rho0
-    st%rates = 0
-    st%rates(1:dim) = rates(1:dim)
-    call ellipse_exact_init(st%ex, dim, rho0, radius, a0 * rates(1:dim))
+    integer :: i, np, place
+    place = merge(PLACE_LATTICE, PLACE_RINGS, cfg%particles%placement == 'lattice')
+    self%rho0 = cfg%physics%rho0
+    self%rates = 0
+    if (cfg%run%case_name == 'ellipsoid3d') then
+      self%dim = 3
+      self%radius = cfg%ellipsoid3d%radius
+      self%a0 = cfg%ellipsoid3d%a0
+      self%rates = cfg%ellipsoid3d%rates
+    else
+      self%dim = 2
+      self%radius = cfg%circle2d%radius
+      self%a0 = cfg%circle2d%a0
+      self%rates(1:2) = [-1.0_wp, 1.0_wp]
+    end if
+    associate(st => self, dim => self%dim, radius => self%radius, a0 => self%a0, &
+              rho0 => self%rho0, n_target => cfg%particles%n)
+    call ellipse_exact_init(st%ex, dim, rho0, radius, a0 * st%rates(1:dim))
     st%p0 = ellipse_centre_pressure(st%ex)
-    dx = ball_spacing(dim, radius, n_target, placement_kind)
-    call place_ball(dim, radius, dx, placement_kind, x, vol)
+    dx = ball_spacing(dim, radius, n_target, place)
+    call place_ball(dim, radius, dx, place, x, vol)
     np = size(vol)
     call particles_allocate(parts, dim, np)
     parts%n = np
@@ -74,15 +91,16 @@ contains
       parts%m(i) = parts%rho(i) * vol(i)
       parts%id(i) = i
     end do
+    end associate
   end subroutine stretching_setup
 
   !> Time-series columns this case adds after the generic ones.
-  subroutine stretching_columns(st, names)
-    type(stretching_t), intent(in) :: st
+  subroutine stretching_columns(self, names)
+    class(stretching_t), intent(in) :: self
     character(len=32), allocatable, intent(out) :: names(:)
     character(len=1), parameter :: ax(3) = ['1', '2', '3']
     integer :: k, d
-    d = st%dim
+    d = self%dim
     allocate(names(0))
     names = [character(len=32) :: 'kinetic_energy_exact', 'p_centre_exact']
     names = [character(len=32) :: names, ('semi_axis_' // ax(k), k = 1, d)]
@@ -91,8 +109,8 @@ contains
     names = [character(len=32) :: names, 'rms_position_error', 'rms_velocity_error']
   end subroutine stretching_columns
 
-  !> Values of the case's columns at time t.  The probe pressure at the
-  !> centre (p_centre, from the caller) enters the running pressure error.
+  !> Values of the case's columns at time t.  The pressure interpolated at
+  !> the centre enters the running mean of the pressure error.
   !>  - kinetic_energy_exact: KE of these particles moving with the exact
   !>    flow, Sum 1/2 m |alpha(t) x_exact|^2 (constant in time);
   !>  - semi_axis_k: fitted to the particles' second moments; _exact: a_k(t);
@@ -102,15 +120,19 @@ contains
   !>    x_exact the exact Lagrangian map of the particle's initial position;
   !>  - rms_velocity_error: RMS |u - alpha x| / (A0 R), exact velocity at the
   !>    particle's own position.
-  subroutine stretching_sample(st, env, t, parts, p_centre, values)
-    type(stretching_t), intent(inout) :: st
+  subroutine stretching_sample(self, env, t, parts, kernel, values)
+    class(stretching_t), intent(inout) :: self
     type(parallel_env_t), intent(in) :: env
-    real(wp), intent(in) :: t, p_centre
+    real(wp), intent(in) :: t
     type(particles_t), intent(in) :: parts
+    type(kernel_t), intent(in) :: kernel
     real(wp), allocatable, intent(out) :: values(:)
     real(wp), allocatable :: xe(:, :)
-    real(wp) :: s(4), fit(3), fit_exact(3), ue(3), a_over_r(3)
+    real(wp) :: s(4), fit(3), fit_exact(3), ue(3), a_over_r(3), p_centre
     integer :: i, n, d
+    associate(st => self)
+    p_centre = probe_pressure(env, parts, kernel, [0.0_wp, 0.0_wp, 0.0_wp])
+    if (st%ke_start < 0) st%ke_start = kinetic_energy(env, parts)
     n = parts%n
     d = st%dim
     call ellipse_exact_at(st%ex, t)
@@ -143,39 +165,48 @@ contains
       st%sum_p_err = st%sum_p_err + abs(p_centre - ellipse_centre_pressure(st%ex)) / st%p0
       st%n_p_samples = st%n_p_samples + 1
     end if
+    end associate
   end subroutine stretching_sample
 
   !> Extra snapshot fields: exact Lagrangian positions, the exact velocity
-  !> and pressure at each particle's position.
-  subroutine stretching_fields(st, t, parts, names, vectors, scalars)
-    type(stretching_t), intent(inout) :: st
+  !> and pressure at each particle's position; the exact semi-axes and
+  !> centre pressure as attributes.
+  subroutine stretching_fields(self, t, parts, f)
+    class(stretching_t), intent(inout) :: self
     real(wp), intent(in) :: t
     type(particles_t), intent(in) :: parts
-    character(len=32), allocatable, intent(out) :: names(:)
-    real(wp), allocatable, intent(out) :: vectors(:, :, :)   !< (3, n, 2)
-    real(wp), allocatable, intent(out) :: scalars(:, :)      !< (n, 1)
+    type(case_fields_t), intent(out) :: f
     integer :: i, n
     n = parts%n
-    call ellipse_exact_at(st%ex, t)
-    names = [character(len=32) :: 'position_exact', 'velocity_exact', 'pressure_exact']
-    allocate(vectors(3, n, 2), scalars(n, 1))
+    call ellipse_exact_at(self%ex, t)
+    f%vector_names = [character(len=32) :: 'position_exact', 'velocity_exact']
+    f%scalar_names = [character(len=32) :: 'pressure_exact']
+    allocate(f%vectors(3, n, 2), f%scalars(n, 1))
     do i = 1, n
-      vectors(:, i, 1) = ellipse_map(st%ex, parts%x0(:, i))
-      vectors(:, i, 2) = ellipse_velocity(st%ex, parts%x(:, i))
-      scalars(i, 1) = ellipse_pressure(st%ex, parts%x(:, i))
+      f%vectors(:, i, 1) = ellipse_map(self%ex, parts%x0(:, i))
+      f%vectors(:, i, 2) = ellipse_velocity(self%ex, parts%x(:, i))
+      f%scalars(i, 1) = ellipse_pressure(self%ex, parts%x(:, i))
     end do
+    f%attr_names = [character(len=32) :: 'semi_axes_exact_1', 'semi_axes_exact_2', &
+                    'semi_axes_exact_3', 'p_centre_exact']
+    f%attr_values = [self%ex%a, ellipse_centre_pressure(self%ex)]
   end subroutine stretching_fields
 
   !> The closing summary of errors against the exact solution (rank 0 prints).
-  subroutine stretching_summary(st, env, unit, t, ke, ke_start, p_centre)
-    type(stretching_t), intent(inout) :: st
+  subroutine stretching_summary(self, env, unit, t, parts, kernel)
+    class(stretching_t), intent(inout) :: self
     type(parallel_env_t), intent(in) :: env
     integer, intent(in) :: unit
-    real(wp), intent(in) :: t, ke, ke_start, p_centre
-    real(wp) :: pc
+    real(wp), intent(in) :: t
+    type(particles_t), intent(in) :: parts
+    type(kernel_t), intent(in) :: kernel
+    real(wp) :: pc, ke, p_centre
     integer :: k
     character(len=1), parameter :: ax(3) = ['x', 'y', 'z']
+    ke = kinetic_energy(env, parts)
+    p_centre = probe_pressure(env, parts, kernel, [0.0_wp, 0.0_wp, 0.0_wp])
     if (env%rank /= 0) return
+    associate(st => self, ke_start => self%ke_start)
     call ellipse_exact_at(st%ex, t)
     pc = ellipse_centre_pressure(st%ex)
     write(unit, '(a)') ''
@@ -200,6 +231,7 @@ contains
       if (st%n_p_samples > 0) write(unit, '(2x,a,f8.3,a)') &
         'centre pressure (raw)  ', 100 * st%sum_p_err / st%n_p_samples, ' % of P(0)'
     end if
+    end associate
   end subroutine stretching_summary
 
 end module case_stretching

@@ -7,15 +7,14 @@ module simulation
   use config, only: config_t, config_dim, config_echo
   use kernels, only: kernel_init, KERNEL_WENDLAND_C2, KERNEL_CUBIC_SPLINE, KERNEL_GAUSSIAN
   use eos, only: eos_init, EOS_LINEAR, EOS_TAIT
-  use placement, only: PLACE_RINGS, PLACE_LATTICE
   use fluid_rhs, only: VISC_NONE, VISC_DELTA, VISC_MONAGHAN, DIFF_NONE, DIFF_MOLTENI, &
                        DIFF_ANTUONO
   use solver, only: solver_t, solver_init, solver_step, solver_evaluate, solver_time_step, &
                     SCHEME_RK4, SCHEME_PC2
   use diagnostics, only: kinetic_energy, total_mass, total_momentum, probe_pressure, &
                          find_bad_particle
-  use case_stretching, only: stretching_t, stretching_setup, stretching_columns, &
-                             stretching_sample, stretching_fields, stretching_summary
+  use case_base, only: case_t, case_fields_t
+  use case_factory, only: make_case
   use parallel_env, only: parallel_env_t, par_sum, par_any, wall_time
   use fileutil, only: make_directory, join_path, rename_file, temp_path
   use snapshot_io, only: snapshot_field_t, snapshot_write, snapshot_filename, &
@@ -27,14 +26,13 @@ module simulation
 
   !> Everything one run carries besides the solver.
   type :: run_t
-    type(stretching_t) :: stretching
+    class(case_t), allocatable :: problem
     type(timeseries_t) :: ts
     type(xdmf_index_t) :: xdmf
     character(len=:), allocatable :: dir
     integer :: n_snapshots = 0
     integer :: n_probes = 0
     real(wp) :: probes(3, 16) = 0
-    real(wp) :: ke_start = 0
     integer(i8) :: n_global = 0
   end type run_t
 
@@ -83,7 +81,6 @@ contains
 
     t = 0
     step = 0
-    run%ke_start = kinetic_energy(env, s%parts)
     call sample(run, env, s, t, step, 0.0_wp)
     call write_snapshot(cfg, env, s, run, t, step, ok)
     if (.not. ok) then
@@ -133,9 +130,7 @@ contains
     end do
 
     call print_end(env, s, run, step, wall_time() - wall0)
-    call stretching_summary(run%stretching, env, output_unit, t, &
-                            kinetic_energy(env, s%parts), run%ke_start, &
-                            probe_pressure(env, s%parts, s%rhs%kernel, run%probes(:, 1)))
+    call run%problem%summary(env, output_unit, t, s%parts, s%rhs%kernel)
   end subroutine simulation_run
 
   !> Translates the configuration into the solver's parameters and builds
@@ -145,22 +140,12 @@ contains
     type(solver_t), intent(inout) :: s
     type(run_t), intent(inout) :: run
     real(wp), intent(out) :: dx
-    integer :: dim, kernel_kind, place
-    real(wp) :: rates(3)
+    integer :: dim, kernel_kind
     dim = config_dim(cfg)
     s%eos = eos_init(merge(EOS_TAIT, EOS_LINEAR, cfg%physics%eos == 'tait'), &
                      cfg%physics%c0, cfg%physics%rho0, cfg%physics%gamma)
-    place = merge(PLACE_LATTICE, PLACE_RINGS, cfg%particles%placement == 'lattice')
-    select case (cfg%run%case_name)
-    case ('ellipsoid3d')
-      rates = cfg%ellipsoid3d%rates
-      call stretching_setup(run%stretching, 3, cfg%ellipsoid3d%radius, cfg%ellipsoid3d%a0, &
-                            rates, cfg%physics%rho0, s%eos, cfg%particles%n, place, s%parts, dx)
-    case default   ! circle2d
-      rates = [-1.0_wp, 1.0_wp, 0.0_wp]
-      call stretching_setup(run%stretching, 2, cfg%circle2d%radius, cfg%circle2d%a0, &
-                            rates, cfg%physics%rho0, s%eos, cfg%particles%n, place, s%parts, dx)
-    end select
+    call make_case(trim(cfg%run%case_name), run%problem)
+    call run%problem%setup(cfg, s%eos, s%parts, dx)
     select case (cfg%numerics%kernel)
     case ('cubic_spline')
       kernel_kind = KERNEL_CUBIC_SPLINE
@@ -214,7 +199,7 @@ contains
       write(num, '(i0)') k
       names = [character(len=32) :: names, 'p_probe_' // trim(num)]
     end do
-    call stretching_columns(run%stretching, case_names)
+    call run%problem%columns(case_names)
     names = [character(len=32) :: names, case_names]
   end function column_names
 
@@ -226,7 +211,7 @@ contains
     real(wp), intent(in) :: t, dt
     integer, intent(in) :: step
     real(wp), allocatable :: row(:), case_values(:)
-    real(wp) :: mom(3), p_probe(16), p_centre
+    real(wp) :: mom(3), p_probe(16)
     integer :: k, dim
     dim = s%parts%dim
     mom = total_momentum(env, s%parts)
@@ -234,8 +219,7 @@ contains
     do k = 1, run%n_probes
       p_probe(k) = probe_pressure(env, s%parts, s%rhs%kernel, run%probes(:, k))
     end do
-    p_centre = probe_pressure(env, s%parts, s%rhs%kernel, [0.0_wp, 0.0_wp, 0.0_wp])
-    call stretching_sample(run%stretching, env, t, s%parts, p_centre, case_values)
+    call run%problem%sample(env, t, s%parts, s%rhs%kernel, case_values)
     row = [t, real(step, wp), dt, kinetic_energy(env, s%parts), total_mass(env, s%parts), &
            mom(1:dim), p_probe(1:run%n_probes), case_values]
     call timeseries_add(run%ts, row)
@@ -251,33 +235,29 @@ contains
     real(wp), intent(in) :: t
     integer, intent(in) :: step
     logical, intent(out) :: ok
-    character(len=32), allocatable :: names(:)
-    real(wp), allocatable :: vectors(:, :, :), scalars(:, :)
+    type(case_fields_t) :: f
     type(snapshot_field_t), allocatable :: extra(:)
     character(len=:), allocatable :: errmsg
-    integer :: k, nv, n
+    integer :: k, nv, ns, n
     ok = .true.
     if (cfg%output%snapshots) then
       n = s%parts%n
-      call stretching_fields(run%stretching, t, s%parts, names, vectors, scalars)
-      nv = size(vectors, 3)
-      allocate(extra(size(names)))
-      do k = 1, size(names)
-        extra(k)%name = trim(names(k))
-        if (k <= nv) then
-          extra(k)%v = vectors(:, :, k)
-        else
-          extra(k)%s = scalars(:, k - nv)
-        end if
+      call run%problem%fields(t, s%parts, f)
+      nv = size(f%vector_names)
+      ns = size(f%scalar_names)
+      allocate(extra(nv + ns))
+      do k = 1, nv
+        extra(k)%name = trim(f%vector_names(k))
+        extra(k)%v = f%vectors(:, :, k)
+      end do
+      do k = 1, ns
+        extra(nv + k)%name = trim(f%scalar_names(k))
+        extra(nv + k)%s = f%scalars(:, k)
       end do
       call snapshot_write(env%comm, join_path(run%dir, snapshot_filename(run%n_snapshots)), &
                           t, step, s%parts%dim, trim(cfg%run%case_name), n, s%parts%id, &
                           s%parts%x, s%parts%u, s%parts%rho, s%parts%p, s%parts%m, ok, errmsg, &
-                          extra=extra, &
-                          attr_names=[character(len=32) :: 'semi_axes_exact_1', &
-                                      'semi_axes_exact_2', 'semi_axes_exact_3', 'p_centre_exact'], &
-                          attr_values=[run%stretching%ex%a, &
-                                       centre_exact(run)], &
+                          extra=extra, attr_names=f%attr_names, attr_values=f%attr_values, &
                           index=run%xdmf)
       if (.not. ok) then
         if (env%rank == 0) write(error_unit, '(a)') 'sph: error: ' // errmsg
@@ -288,14 +268,6 @@ contains
     call timeseries_flush(run%ts, ok, errmsg)
     if (.not. ok .and. env%rank == 0) write(error_unit, '(a)') 'sph: error: ' // errmsg
   end subroutine write_snapshot
-
-  function centre_exact(run) result(p)
-    type(run_t), intent(in) :: run
-    real(wp) :: p
-    associate(ex => run%stretching%ex)
-      p = ex%rho * sum(ex%alpha(1:ex%dim)**2) / (2 * sum(1 / ex%a(1:ex%dim)**2))
-    end associate
-  end function centre_exact
 
   !> Writes the effective configuration beside the outputs (atomically).
   subroutine echo_input(cfg, path, ok, errmsg)

@@ -1,0 +1,85 @@
+!> The interface every prototype problem implements: its initial particles,
+!> the time-series columns and snapshot fields it adds (typically its exact
+!> or reference solution and the errors against it), and its closing summary.
+!> A new case is a new module extending case_t plus one line in case_factory.
+module case_base
+  use kinds, only: wp
+  use config, only: config_t
+  use eos, only: eos_t
+  use kernels, only: kernel_t
+  use particles, only: particles_t
+  use parallel_env, only: parallel_env_t
+  implicit none
+  private
+  public :: case_t, case_fields_t
+
+  !> Extra per-particle snapshot fields and root attributes of a case.
+  type :: case_fields_t
+    character(len=32), allocatable :: vector_names(:), scalar_names(:)
+    real(wp), allocatable :: vectors(:, :, :)   !< (3, n, size(vector_names))
+    real(wp), allocatable :: scalars(:, :)      !< (n, size(scalar_names))
+    character(len=32), allocatable :: attr_names(:)
+    real(wp), allocatable :: attr_values(:)
+  end type case_fields_t
+
+  type, abstract :: case_t
+    integer :: dim = 2
+  contains
+    procedure(setup_i), deferred :: setup
+    procedure(columns_i), deferred :: columns
+    procedure(sample_i), deferred :: sample
+    procedure(fields_i), deferred :: fields
+    procedure(summary_i), deferred :: summary
+  end type case_t
+
+  abstract interface
+    !> Places the particles and sets their initial state; dx is the spacing.
+    subroutine setup_i(self, cfg, eos, parts, dx)
+      import :: case_t, config_t, eos_t, particles_t, wp
+      class(case_t), intent(inout) :: self
+      type(config_t), intent(in) :: cfg
+      type(eos_t), intent(in) :: eos
+      type(particles_t), intent(inout) :: parts
+      real(wp), intent(out) :: dx
+    end subroutine setup_i
+
+    !> Names of the time-series columns the case adds after the generic ones.
+    subroutine columns_i(self, names)
+      import :: case_t
+      class(case_t), intent(in) :: self
+      character(len=32), allocatable, intent(out) :: names(:)
+    end subroutine columns_i
+
+    !> Values of those columns at time t (collective over env).
+    subroutine sample_i(self, env, t, parts, kernel, values)
+      import :: case_t, parallel_env_t, particles_t, kernel_t, wp
+      class(case_t), intent(inout) :: self
+      type(parallel_env_t), intent(in) :: env
+      real(wp), intent(in) :: t
+      type(particles_t), intent(in) :: parts
+      type(kernel_t), intent(in) :: kernel
+      real(wp), allocatable, intent(out) :: values(:)
+    end subroutine sample_i
+
+    !> Extra snapshot fields and attributes at time t (local particles).
+    subroutine fields_i(self, t, parts, f)
+      import :: case_t, particles_t, case_fields_t, wp
+      class(case_t), intent(inout) :: self
+      real(wp), intent(in) :: t
+      type(particles_t), intent(in) :: parts
+      type(case_fields_t), intent(out) :: f
+    end subroutine fields_i
+
+    !> The closing summary (rank 0 writes to unit; collective over env).
+    subroutine summary_i(self, env, unit, t, parts, kernel)
+      import :: case_t, parallel_env_t, particles_t, kernel_t, wp
+      class(case_t), intent(inout) :: self
+      type(parallel_env_t), intent(in) :: env
+      integer, intent(in) :: unit
+      real(wp), intent(in) :: t
+      type(particles_t), intent(in) :: parts
+      type(kernel_t), intent(in) :: kernel
+    end subroutine summary_i
+  end interface
+
+end module case_base
