@@ -2,9 +2,12 @@
 !>
 !> Notation: x_ij = x_i - x_j, r = |x_ij|, g = grad_i W_ij = F(r) x_ij with
 !> F = W'/r < 0 (kernels module), V_j = m_j/rho_j, u_ji = u_j - u_i.  Pairs
-!> come from a half list, so each pair is visited once and its contribution
-!> is added to i and, with the antisymmetry grad_j W_ji = -g, to j.
-!> Contributions to halo copies (j > n) land in scratch slots and are ignored.
+!> come from a half list in canonical order (neighbours module): each pair
+!> is computed once and added to i and, with grad_j W_ji = -g, to j, row by
+!> row, so that every owned particle receives its terms in an order that
+!> does not depend on the decomposition: results are bitwise the same for
+!> any number of ranks.  Terms for halo copies land in slots that are
+!> ignored (their owners compute them).
 module fluid_rhs
   use kinds, only: wp, i8
   use kernels, only: kernel_t, kernel_f_list
@@ -49,16 +52,20 @@ contains
     real(wp), allocatable :: xl(:, :), r2l(:), fl(:)
     integer, allocatable :: jl(:)
     real(wp) :: xij(3), f, g(3), vi, vj, drho, s2, inv(3, 3), det, xx(6)
-    integer :: i, j, l, nn
+    real(wp) :: gi(3), mi(6)
+    integer :: i, j, l, nn, kk
     allocate(mm(6, ntot))
     mm = 0
     grad_rho = 0
     s2 = prm%kernel%support**2
     call pair_buffers(nl, jl, xl, r2l, fl)
-    do i = 1, n
-      vi = m(i) / rho(i)
-      call in_range_pairs(i, x, s2, nl, nn, jl, xl, r2l)
+    do kk = 1, nl%n_rows
+      i = nl%row(kk)
+      call in_range_pairs(kk, i, x, s2, nl, nn, jl, xl, r2l)
       call kernel_f_list(prm%kernel, nn, r2l, fl)
+      vi = m(i) / rho(i)
+      gi = 0
+      mi = 0
       do l = 1, nn
         j = jl(l)
         xij = xl(:, l)
@@ -67,21 +74,23 @@ contains
         vj = m(j) / rho(j)
         drho = rho(j) - rho(i)
         ! (rho_j - rho_i) g V_j for i; (rho_i - rho_j)(-g) V_i for j
-        grad_rho(:, i) = grad_rho(:, i) + drho * vj * g
+        gi = gi + drho * vj * g
         grad_rho(:, j) = grad_rho(:, j) + drho * vi * g
-        ! -F x_ij x_ij^T is the same for i and j
+        ! -F x_ij x_ij^T, the same for i and j
         xx = -f * [xij(1)**2, xij(2)**2, xij(3)**2, &
                    xij(1) * xij(2), xij(1) * xij(3), xij(2) * xij(3)]
-        mm(:, i) = mm(:, i) + vj * xx
+        mi = mi + vj * xx
         mm(:, j) = mm(:, j) + vi * xx
       end do
+      grad_rho(:, i) = grad_rho(:, i) + gi
+      mm(:, i) = mm(:, i) + mi
     end do
     do i = 1, n
       if (sym_min_eigenvalue(prm%dim, mm(:, i)) < LAMBDA_MIN) cycle
       call invert_sym(prm%dim, mm(:, i), inv, det)
       grad_rho(:, i) = matmul(inv, grad_rho(:, i))
     end do
-    grad_rho(:, n + 1:ntot) = 0   ! halo values come from their owners
+    grad_rho(:, n + 1:ntot) = 0   ! halo values come from their owners (exchange)
   end subroutine rhs_density_gradient
 
   !> Work arrays for the in-range partners of one particle, sized by the
@@ -92,15 +101,16 @@ contains
     real(wp), allocatable, intent(out) :: xl(:, :), r2l(:), fl(:)
     integer :: longest
     longest = 1
-    if (nl%n > 0) longest = max(1, int(maxval(nl%start(2:nl%n + 1) - nl%start(1:nl%n))))
+    if (nl%n_rows > 0) &
+      longest = max(1, int(maxval(nl%start(2:nl%n_rows + 1) - nl%start(1:nl%n_rows))))
     allocate(jl(longest + 1), xl(3, longest + 1), r2l(longest + 1), fl(longest + 1))
   end subroutine pair_buffers
 
-  !> The partners j of particle i in the list that lie within the kernel
+  !> The partners j in row kk (of particle i) that lie within the kernel
   !> support (r^2 < s2), with x_ij and r^2: the list's skin makes most of
   !> the rest fall outside, so filtering first saves the kernel work.
-  pure subroutine in_range_pairs(i, x, s2, nl, nn, jl, xl, r2l)
-    integer, intent(in) :: i
+  pure subroutine in_range_pairs(kk, i, x, s2, nl, nn, jl, xl, r2l)
+    integer, intent(in) :: kk, i
     real(wp), intent(in) :: x(:, :), s2
     type(neighbour_list_t), intent(in) :: nl
     integer, intent(out) :: nn
@@ -112,7 +122,7 @@ contains
     ! branchless compaction: always store in the next free slot, advance
     ! only when in range (the test is too random for branch prediction)
     nn = 0
-    do k = nl%start(i), nl%start(i + 1) - 1
+    do k = nl%start(kk), nl%start(kk + 1) - 1
       j = nl%nbr(k)
       xij = x(:, i) - x(:, j)
       r2 = xij(1)**2 + xij(2)**2 + xij(3)**2
@@ -200,7 +210,7 @@ contains
     real(wp) :: drho_i, du_i(3), rhoi, pi_
     real(wp), allocatable :: vol(:), inv_rho(:), xl(:, :), r2l(:), fl(:)
     integer, allocatable :: jl(:)
-    integer :: i, j, l, nn
+    integer :: i, j, l, nn, kk
     logical :: antuono
     h = prm%kernel%h
     s2 = prm%kernel%support**2
@@ -217,8 +227,9 @@ contains
     call pair_buffers(nl, jl, xl, r2l, fl)
     drho = 0
     du = 0
-    do i = 1, n
-      call in_range_pairs(i, x, s2, nl, nn, jl, xl, r2l)
+    do kk = 1, nl%n_rows
+      i = nl%row(kk)
+      call in_range_pairs(kk, i, x, s2, nl, nn, jl, xl, r2l)
       call kernel_f_list(prm%kernel, nn, r2l, fl)
       rhoi = rho(i)
       iri = inv_rho(i)
@@ -260,9 +271,14 @@ contains
         du_i = du_i + (a * vj * iri) * g
         du(:, j) = du(:, j) - (a * vi * irj) * g
       end do
+      ! the terms from partners earlier in canonical order are already in
+      ! drho(i), du(:, i): the row's own sum comes after them
       drho(i) = drho(i) + drho_i
       du(:, i) = du(:, i) + du_i
     end do
+    ! halo slots hold partial sums: their owners compute the real values
+    drho(n + 1:ntot) = 0
+    du(:, n + 1:ntot) = 0
   end subroutine rhs_evaluate
 
 end module fluid_rhs

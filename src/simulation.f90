@@ -55,7 +55,7 @@ contains
     dim = config_dim(cfg)
     t_end = cfg%run%t_end
     call setup(cfg, s, run, dx)
-    call solver_init(s)
+    call solver_init(s, env)
     run%n_global = nint(par_sum(env, real(s%parts%n, wp)), i8)
 
     ! output directory, the echoed input, the time series and the index

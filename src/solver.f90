@@ -8,7 +8,7 @@ module solver
   use eos, only: eos_t, eos_pressure
   use fluid_rhs, only: rhs_params_t, rhs_density_gradient, rhs_evaluate, DIFF_ANTUONO, &
                        VISC_NONE
-  use parallel_env, only: parallel_env_t, par_max
+  use parallel_env, only: parallel_env_t, par_max, par_min
   implicit none
   private
   public :: solver_t, solver_init, solver_step, solver_evaluate, solver_rebuild, &
@@ -40,8 +40,9 @@ contains
 
   !> Sizes the work arrays for the particles already in s%parts and builds
   !> the first neighbour list.
-  subroutine solver_init(s)
+  subroutine solver_init(s, env)
     type(solver_t), intent(inout) :: s
+    type(parallel_env_t), intent(in) :: env
     integer :: cap
     cap = size(s%parts%rho)
     allocate(s%drho(cap), s%du(3, cap), s%grad_rho(3, cap))
@@ -52,20 +53,30 @@ contains
     s%nu = 0
     if (s%rhs%viscosity /= VISC_NONE) &
       s%nu = s%rhs%alpha * s%rhs%kernel%h * s%rhs%c0 / (2 * (s%parts%dim + 2))
-    call solver_rebuild(s)
+    call solver_rebuild(s, env)
   end subroutine solver_init
 
-  !> Sorts the owned particles by cell and rebuilds the neighbour list.
-  subroutine solver_rebuild(s)
+  !> Sorts the owned particles by cell (memory locality) and rebuilds the
+  !> neighbour list on the grid aligned on the global lower corner of the
+  !> particles, which every rank computes alike.
+  subroutine solver_rebuild(s, env)
     type(solver_t), intent(inout) :: s
+    type(parallel_env_t), intent(in) :: env
     integer, allocatable :: perm(:)
-    real(wp) :: radius
+    real(wp) :: radius, origin(3)
+    integer :: k, ntot
     associate(pt => s%parts)
       radius = s%rhs%kernel%support + s%skin
       allocate(perm(pt%n))
       call cell_sort_permutation(pt%dim, pt%n, pt%x, radius, perm)
       call particles_permute(pt, perm)
-      call neighbour_build(s%nl, pt%dim, pt%n, pt%n + pt%n_halo, pt%x, radius)
+      ntot = pt%n + pt%n_halo
+      do k = 1, 3
+        origin(k) = huge(1.0_wp)
+        if (ntot > 0) origin(k) = minval(pt%x(k, 1:ntot))
+        origin(k) = par_min(env, origin(k))
+      end do
+      call neighbour_build(s%nl, pt%dim, pt%n, ntot, pt%x, pt%id, radius, origin)
     end associate
     s%n_rebuilds = s%n_rebuilds + 1
   end subroutine solver_rebuild
@@ -135,7 +146,7 @@ contains
     reach = 1.25_wp * s%cfl * s%rhs%kernel%h * umax / (s%rhs%c0 + umax)
     if (2 * (moved + reach) >= s%skin) then
       s%skin = max(s%skin_min, 2.2_wp * reach)
-      call solver_rebuild(s)
+      call solver_rebuild(s, env)
     end if
 
     call solver_evaluate(s)

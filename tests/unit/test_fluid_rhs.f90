@@ -2,7 +2,7 @@
 !> laws on random clouds, exact algebra (renormalised gradient of a linear
 !> field), and the continuum values of div u and grad p on a lattice.
 module test_fluid_rhs
-  use kinds, only: wp
+  use kinds, only: wp, i8
   use kernels, only: kernel_init, kernel_f, KERNEL_WENDLAND_C2
   use neighbours, only: neighbour_list_t, neighbour_build
   use fluid_rhs, only: rhs_params_t, rhs_density_gradient, rhs_evaluate, &
@@ -78,7 +78,8 @@ contains
     c%prm%rho0 = 1
     c%prm%alpha = 0.05_wp
     c%prm%delta = 0.1_wp
-    call neighbour_build(c%nl, dim, c%n, c%n, c%x, c%prm%kernel%support)
+    call neighbour_build(c%nl, dim, c%n, c%n, c%x, [(int(i, i8), i = 1, c%n)], &
+                         c%prm%kernel%support, minval(c%x, dim=2))
   end subroutine make_cloud
 
   subroutine evaluate(c)
