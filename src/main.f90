@@ -45,9 +45,6 @@ program sph
 
   call config_load(path, overrides, cfg, ok, errmsg)
   if (.not. ok) call fail(errmsg)
-  if (env%nranks > 1) call fail('this version runs on one rank only: the domain ' // &
-    'decomposition is not implemented yet, so more ranks would duplicate the work; ' // &
-    'run with mpirun -np 1')
 
   call simulation_run(cfg, env, status)
   call par_stop(env, status)

@@ -8,11 +8,11 @@ module parallel_env
   use mpi_f08, only: MPI_Comm, MPI_Init, MPI_Finalize, MPI_Comm_dup, MPI_Comm_free, &
                      MPI_Comm_rank, MPI_Comm_size, MPI_Allreduce, MPI_Abort, MPI_Barrier, &
                      MPI_Wtime, MPI_IN_PLACE, MPI_DOUBLE_PRECISION, MPI_INTEGER, &
-                     MPI_SUM, MPI_MAX, MPI_MIN, MPI_COMM_WORLD, MPI_Initialized
+                     MPI_SUM, MPI_MAX, MPI_MIN, MPI_COMM_WORLD, MPI_Initialized, MPI_Bcast
   implicit none
   private
   public :: parallel_env_t, par_start, par_stop, par_from_comm, par_sum, par_sum_array, par_max, par_min, &
-            par_any, par_barrier, par_abort, wall_time, exit_process
+            par_any, par_barrier, par_abort, wall_time, exit_process, par_bcast_int
 
   !> The ranks running one simulation.
   type :: parallel_env_t
@@ -119,6 +119,13 @@ contains
     call MPI_Allreduce(MPI_IN_PLACE, v, 1, MPI_INTEGER, MPI_MAX, env%comm)
     any_flag = v /= 0
   end function par_any
+
+  !> Broadcasts an integer array from rank 0.
+  subroutine par_bcast_int(env, a)
+    type(parallel_env_t), intent(in) :: env
+    integer, intent(inout) :: a(:)
+    call MPI_Bcast(a, size(a), MPI_INTEGER, 0, env%comm)
+  end subroutine par_bcast_int
 
   subroutine par_barrier(env)
     type(parallel_env_t), intent(in) :: env

@@ -6,7 +6,7 @@ module particles
   use kinds, only: wp, i8
   implicit none
   private
-  public :: particles_t, particles_allocate, particles_permute
+  public :: particles_t, particles_allocate, particles_permute, particles_reserve
 
   type :: particles_t
     integer :: dim = 2
@@ -36,6 +36,26 @@ contains
     parts%x = 0; parts%u = 0; parts%x0 = 0
     parts%rho = 0; parts%p = 0; parts%m = 0; parts%id = 0
   end subroutine particles_allocate
+
+  !> Makes room for at least `capacity` particles, keeping the contents
+  !> (grows by half again at least, so repeated growth stays cheap).
+  subroutine particles_reserve(parts, capacity)
+    type(particles_t), intent(inout) :: parts
+    integer, intent(in) :: capacity
+    real(wp), allocatable :: r1(:), r3(:, :)
+    integer(i8), allocatable :: i1(:)
+    integer :: old, cap
+    old = size(parts%rho)
+    if (capacity <= old) return
+    cap = max(capacity, old + old / 2)
+    allocate(r3(3, cap)); r3 = 0; r3(:, 1:old) = parts%x; call move_alloc(r3, parts%x)
+    allocate(r3(3, cap)); r3 = 0; r3(:, 1:old) = parts%u; call move_alloc(r3, parts%u)
+    allocate(r3(3, cap)); r3 = 0; r3(:, 1:old) = parts%x0; call move_alloc(r3, parts%x0)
+    allocate(r1(cap)); r1 = 0; r1(1:old) = parts%rho; call move_alloc(r1, parts%rho)
+    allocate(r1(cap)); r1 = 0; r1(1:old) = parts%p; call move_alloc(r1, parts%p)
+    allocate(r1(cap)); r1 = 0; r1(1:old) = parts%m; call move_alloc(r1, parts%m)
+    allocate(i1(cap)); i1 = 0; i1(1:old) = parts%id; call move_alloc(i1, parts%id)
+  end subroutine particles_reserve
 
   !> Reorders the owned particles: new slot k receives old particle perm(k).
   subroutine particles_permute(parts, perm)

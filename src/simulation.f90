@@ -4,6 +4,7 @@
 module simulation
   use, intrinsic :: iso_fortran_env, only: output_unit, error_unit
   use kinds, only: wp, i8
+  use particles, only: particles_t
   use config, only: config_t, config_dim, config_echo
   use kernels, only: kernel_init, KERNEL_WENDLAND_C2, KERNEL_CUBIC_SPLINE, KERNEL_GAUSSIAN
   use eos, only: eos_init, EOS_LINEAR, EOS_TAIT
@@ -15,7 +16,7 @@ module simulation
                          find_bad_particle
   use case_base, only: case_t, case_fields_t
   use case_factory, only: make_case
-  use parallel_env, only: parallel_env_t, par_sum, par_any, wall_time
+  use parallel_env, only: parallel_env_t, par_sum, par_any, par_max, wall_time
   use fileutil, only: make_directory, join_path, rename_file, temp_path
   use snapshot_io, only: snapshot_field_t, snapshot_write, snapshot_filename, &
                          xdmf_index_t, xdmf_init
@@ -34,6 +35,8 @@ module simulation
     integer :: n_probes = 0
     real(wp) :: probes(3, 16) = 0
     integer(i8) :: n_global = 0
+    real(wp) :: imb_sum = 0, imb_max = 0   !< imbalance statistics over the samples
+    integer :: imb_n = 0
   end type run_t
 
 contains
@@ -54,7 +57,7 @@ contains
     status = 0
     dim = config_dim(cfg)
     t_end = cfg%run%t_end
-    call setup(cfg, s, run, dx)
+    call setup(cfg, env, s, run, dx)
     call solver_init(s, env)
     run%n_global = nint(par_sum(env, real(s%parts%n, wp)), i8)
 
@@ -75,7 +78,7 @@ contains
                          column_names(run, dim))
 
     ! first evaluation: the time-step limits to report, and the state at t = 0
-    call solver_evaluate(s)
+    call solver_evaluate(s, env)
     call solver_time_step(s, env, dt_est)
     call print_start(cfg, env, s, run, dx, dt_est)
 
@@ -122,10 +125,13 @@ contains
           status = 1
           return
         end if
+        ! a run restarted from this snapshot starts with a fresh list: so
+        ! does this one, and both go on identically
+        s%force_rebuild = .true.
       end if
       if (wall_time() - wall_last >= cfg%run%progress_interval .or. done) then
         wall_last = wall_time()
-        call print_progress(env, step, t, dt, t_end, wall_last - wall0)
+        call print_progress(env, step, t, dt, t_end, wall_last - wall0, s%imbalance)
       end if
     end do
 
@@ -135,8 +141,9 @@ contains
 
   !> Translates the configuration into the solver's parameters and builds
   !> the case's initial particles.
-  subroutine setup(cfg, s, run, dx)
+  subroutine setup(cfg, env, s, run, dx)
     type(config_t), intent(in) :: cfg
+    type(parallel_env_t), intent(in) :: env
     type(solver_t), intent(inout) :: s
     type(run_t), intent(inout) :: run
     real(wp), intent(out) :: dx
@@ -146,6 +153,7 @@ contains
                      cfg%physics%c0, cfg%physics%rho0, cfg%physics%gamma)
     call make_case(trim(cfg%run%case_name), run%problem)
     call run%problem%setup(cfg, s%eos, s%parts, dx)
+    call keep_share(env, s%parts)
     select case (cfg%numerics%kernel)
     case ('cubic_spline')
       kernel_kind = KERNEL_CUBIC_SPLINE
@@ -186,6 +194,29 @@ contains
     if (dim == 2) run%probes(3, :) = 0
   end subroutine setup
 
+  !> Every rank has set up the whole case: each keeps a contiguous share of
+  !> it; the first list build then balances the decomposition and migrates
+  !> the particles to their owners.
+  subroutine keep_share(env, parts)
+    type(parallel_env_t), intent(in) :: env
+    type(particles_t), intent(inout) :: parts
+    integer :: lo, hi, nloc
+    integer(i8) :: ntot
+    if (env%nranks == 1) return
+    ntot = parts%n
+    lo = int(ntot * env%rank / env%nranks) + 1
+    hi = int(ntot * (env%rank + 1) / env%nranks)
+    nloc = hi - lo + 1
+    parts%x(:, 1:nloc) = parts%x(:, lo:hi)
+    parts%u(:, 1:nloc) = parts%u(:, lo:hi)
+    parts%x0(:, 1:nloc) = parts%x0(:, lo:hi)
+    parts%rho(1:nloc) = parts%rho(lo:hi)
+    parts%p(1:nloc) = parts%p(lo:hi)
+    parts%m(1:nloc) = parts%m(lo:hi)
+    parts%id(1:nloc) = parts%id(lo:hi)
+    parts%n = nloc
+  end subroutine keep_share
+
   function column_names(run, dim) result(names)
     type(run_t), intent(in) :: run
     integer, intent(in) :: dim
@@ -193,7 +224,7 @@ contains
     character(len=1), parameter :: ax(3) = ['x', 'y', 'z']
     character(len=8) :: num
     integer :: k
-    names = [character(len=32) :: 'time', 'step', 'dt', 'kinetic_energy', 'mass']
+    names = [character(len=32) :: 'time', 'step', 'dt', 'imbalance', 'kinetic_energy', 'mass']
     names = [character(len=32) :: names, ('momentum_' // ax(k), k = 1, dim)]
     do k = 1, run%n_probes
       write(num, '(i0)') k
@@ -220,9 +251,13 @@ contains
       p_probe(k) = probe_pressure(env, s%parts, s%rhs%kernel, run%probes(:, k))
     end do
     call run%problem%sample(env, t, s%parts, s%rhs%kernel, case_values)
-    row = [t, real(step, wp), dt, kinetic_energy(env, s%parts), total_mass(env, s%parts), &
+    row = [t, real(step, wp), dt, s%imbalance, kinetic_energy(env, s%parts), &
+           total_mass(env, s%parts), &
            mom(1:dim), p_probe(1:run%n_probes), case_values]
     call timeseries_add(run%ts, row)
+    run%imb_sum = run%imb_sum + s%imbalance
+    run%imb_max = max(run%imb_max, s%imbalance)
+    run%imb_n = run%imb_n + 1
   end subroutine sample
 
   !> Snapshot number run%n_snapshots at time t, with the case's exact fields,
@@ -327,16 +362,21 @@ contains
     flush(output_unit)
   end subroutine print_start
 
-  subroutine print_progress(env, step, t, dt, t_end, wall)
+  subroutine print_progress(env, step, t, dt, t_end, wall, imbalance)
     type(parallel_env_t), intent(in) :: env
     integer, intent(in) :: step
-    real(wp), intent(in) :: t, dt, t_end, wall
+    real(wp), intent(in) :: t, dt, t_end, wall, imbalance
     real(wp) :: eta
     if (env%rank /= 0) return
     eta = 0
     if (t > 0) eta = wall * (t_end - t) / t
-    write(output_unit, '(a,i8,a,f10.5,a,es10.3,a,f9.1,a,f9.1,a)') 'step ', step, '  t ', t, &
-      '  dt ', dt, '  wall ', wall, ' s  ETA ', eta, ' s'
+    if (env%nranks > 1) then
+      write(output_unit, '(a,i8,a,f10.5,a,es10.3,a,f9.1,a,f9.1,a,f6.3)') 'step ', step, &
+        '  t ', t, '  dt ', dt, '  wall ', wall, ' s  ETA ', eta, ' s  imbalance ', imbalance
+    else
+      write(output_unit, '(a,i8,a,f10.5,a,es10.3,a,f9.1,a,f9.1,a)') 'step ', step, '  t ', t, &
+        '  dt ', dt, '  wall ', wall, ' s  ETA ', eta, ' s'
+    end if
     flush(output_unit)
   end subroutine print_progress
 
@@ -346,12 +386,19 @@ contains
     type(run_t), intent(in) :: run
     integer, intent(in) :: steps
     real(wp), intent(in) :: wall
+    real(wp) :: comm
+    comm = par_max(env, s%comm_time)
     if (env%rank /= 0) return
-    write(output_unit, '(a,i0,a,f10.2,a,es10.3,a,es10.3,a)') 'done: ', steps, ' steps in ', &
+    write(output_unit, '(a,i0,a,f10.2,a,es10.3,a,es10.3,a,i0,a)') 'done: ', steps, ' steps in ', &
       wall, ' s, ', wall / max(steps, 1), ' s/step, ', &
-      real(run%n_global, wp) * steps / max(wall, 1e-9_wp), ' particle-steps/s'
+      real(run%n_global, wp) * steps / max(wall, 1e-9_wp), ' particle-steps/s on ', &
+      env%nranks, ' rank(s)'
     write(output_unit, '(a,i0,a,i0,a,i0)') '  right-hand sides ', s%n_evaluations, &
       ', list rebuilds ', s%n_rebuilds, ', snapshots ', run%n_snapshots
+    if (env%nranks > 1) write(output_unit, '(a,f6.3,a,f6.3,a,i0,a,i0,a,f5.1,a)') &
+      '  imbalance (max/mean particles) mean ', run%imb_sum / max(run%imb_n, 1), ', max ', &
+      run%imb_max, ', re-balanced ', s%n_balances, ' times, ', s%n_migrated, &
+      ' migrations, communication ', 100 * comm / max(wall, 1e-9_wp), ' % of the wall time'
     flush(output_unit)
   end subroutine print_end
 

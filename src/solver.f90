@@ -8,14 +8,17 @@ module solver
   use eos, only: eos_t, eos_pressure
   use fluid_rhs, only: rhs_params_t, rhs_density_gradient, rhs_evaluate, DIFF_ANTUONO, &
                        VISC_NONE
-  use parallel_env, only: parallel_env_t, par_max, par_min
+  use parallel_env, only: parallel_env_t, par_max, par_min, wall_time
+  use domain, only: domain_t, domain_balance, domain_imbalance, DECOMP_SLAB, DECOMP_METIS
+  use halo_exchange, only: halo_t, migrate, halo_build, halo_refresh, halo_refresh_field
   implicit none
   private
   public :: solver_t, solver_init, solver_step, solver_evaluate, solver_rebuild, &
-            solver_time_step, SCHEME_RK4, SCHEME_PC2
+            solver_time_step, SCHEME_RK4, SCHEME_PC2, BALANCE_PARTICLES, BALANCE_PAIRS
 
   integer, parameter :: SCHEME_RK4 = 1   !< (T1) classical 4th-order Runge-Kutta
   integer, parameter :: SCHEME_PC2 = 2   !< (T2) 2-stage predictor-corrector
+  integer, parameter :: BALANCE_PARTICLES = 1, BALANCE_PAIRS = 2   !< work measures
 
   type :: solver_t
     type(particles_t) :: parts
@@ -34,6 +37,17 @@ module solver
     integer :: n_evaluations = 0
     real(wp) :: umax = 0, amax = 0     !< global maxima at the start of the last step
     real(wp) :: dt_cfl = 0, dt_force = 0, dt_visc = 0  !< the limits of the last step
+    ! domain decomposition
+    type(domain_t) :: dom
+    type(halo_t) :: halo
+    integer :: decomposition = DECOMP_SLAB
+    integer :: balance = BALANCE_PARTICLES
+    real(wp) :: imbalance_threshold = 0.1_wp   !< re-balance when max/mean work exceeds 1 + this
+    real(wp) :: imbalance = 1                  !< max/mean work after the last rebuild
+    integer :: n_balances = 0
+    integer(i8) :: n_migrated = 0              !< particles that changed rank
+    real(wp) :: comm_time = 0                  !< wall time in halo exchanges and migration
+    logical :: force_rebuild = .false.         !< rebuild at the start of the next step
   end type solver_t
 
 contains
@@ -43,11 +57,7 @@ contains
   subroutine solver_init(s, env)
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
-    integer :: cap
-    cap = size(s%parts%rho)
-    allocate(s%drho(cap), s%du(3, cap), s%grad_rho(3, cap))
-    allocate(s%xs(3, cap), s%us(3, cap), s%rhos(cap), s%xa(3, cap), s%ua(3, cap), s%rhoa(cap))
-    s%drho = 0; s%du = 0; s%grad_rho = 0
+    call ensure_capacity(s)
     s%skin = s%skin_min
     ! nu = alpha h c0 / (2 (dim + 2)) for the delta-SPH form (E5: alpha h c0/8 in 2D)
     s%nu = 0
@@ -56,41 +66,111 @@ contains
     call solver_rebuild(s, env)
   end subroutine solver_init
 
-  !> Sorts the owned particles by cell (memory locality) and rebuilds the
-  !> neighbour list on the grid aligned on the global lower corner of the
-  !> particles, which every rank computes alike.
+  !> Work arrays as large as the particle arrays (which migration and the
+  !> halo may have grown).
+  subroutine ensure_capacity(s)
+    type(solver_t), intent(inout) :: s
+    integer :: cap
+    cap = size(s%parts%rho)
+    if (allocated(s%drho)) then
+      if (size(s%drho) >= cap) return
+      deallocate(s%drho, s%du, s%grad_rho, s%xs, s%us, s%rhos, s%xa, s%ua, s%rhoa)
+    end if
+    allocate(s%drho(cap), s%du(3, cap), s%grad_rho(3, cap))
+    allocate(s%xs(3, cap), s%us(3, cap), s%rhos(cap), s%xa(3, cap), s%ua(3, cap), s%rhoa(cap))
+    s%drho = 0; s%du = 0; s%grad_rho = 0
+  end subroutine ensure_capacity
+
+  !> Re-balances the decomposition when needed (first call, or imbalance
+  !> above the threshold), migrates particles to their owners, sorts the
+  !> owned ones by cell (memory locality), brings in the halo copies within
+  !> the list radius and rebuilds the neighbour list on the grid aligned on
+  !> the global lower corner of the particles, which every rank computes
+  !> alike.
   subroutine solver_rebuild(s, env)
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
     integer, allocatable :: perm(:)
-    real(wp) :: radius, origin(3)
-    integer :: k, ntot
+    real(wp), allocatable :: w(:)
+    real(wp) :: radius, origin(3), t0, imbalance
+    integer :: k, ntot, n_left
+    radius = s%rhs%kernel%support + s%skin
     associate(pt => s%parts)
-      radius = s%rhs%kernel%support + s%skin
+      ! work of each owned particle: 1, or its number of pairs in the last list
+      allocate(w(pt%n))
+      w = 1
+      if (s%balance == BALANCE_PAIRS .and. s%nl%n_rows > 0) call pair_work(s, w)
+      ! collective: evaluated on every rank, never inside a short-circuit
+      imbalance = domain_imbalance(env, sum(w))
+      if (s%n_rebuilds == 0 .or. imbalance > 1 + s%imbalance_threshold) then
+        call domain_balance(s%dom, env, s%decomposition, pt%dim, pt%n, pt%x, w, radius)
+        s%n_balances = s%n_balances + 1
+      end if
+      t0 = wall_time()
+      call migrate(env, s%dom, pt, n_left)
+      s%n_migrated = s%n_migrated + n_left
+      s%comm_time = s%comm_time + (wall_time() - t0)
       allocate(perm(pt%n))
       call cell_sort_permutation(pt%dim, pt%n, pt%x, radius, perm)
       call particles_permute(pt, perm)
+      t0 = wall_time()
+      call halo_build(s%halo, env, s%dom, pt, radius)
+      s%comm_time = s%comm_time + (wall_time() - t0)
+      call ensure_capacity(s)
       ntot = pt%n + pt%n_halo
       do k = 1, 3
         origin(k) = huge(1.0_wp)
-        if (ntot > 0) origin(k) = minval(pt%x(k, 1:ntot))
+        if (pt%n > 0) origin(k) = minval(pt%x(k, 1:pt%n))
         origin(k) = par_min(env, origin(k))
       end do
       call neighbour_build(s%nl, pt%dim, pt%n, ntot, pt%x, pt%id, radius, origin)
+      deallocate(w)
+      allocate(w(pt%n))
+      w = 1
+      if (s%balance == BALANCE_PAIRS) call pair_work(s, w)
+      s%imbalance = domain_imbalance(env, sum(w))
     end associate
     s%n_rebuilds = s%n_rebuilds + 1
   end subroutine solver_rebuild
 
-  !> One right-hand-side evaluation at the current state: pressure from the
-  !> equation of state, then the optional density-gradient pass, then (E1-E5).
-  subroutine solver_evaluate(s)
+  !> Work of each owned particle as its number of listed pairs (a pair of
+  !> two owned particles counts for both).
+  subroutine pair_work(s, w)
+    type(solver_t), intent(in) :: s
+    real(wp), intent(inout) :: w(:)
+    integer :: kk, i, j
+    integer(i8) :: k
+    w = 0
+    do kk = 1, s%nl%n_rows
+      i = s%nl%row(kk)
+      do k = s%nl%start(kk), s%nl%start(kk + 1) - 1
+        j = s%nl%nbr(k)
+        if (i <= size(w)) w(i) = w(i) + 1
+        if (j <= size(w)) w(j) = w(j) + 1
+      end do
+    end do
+  end subroutine pair_work
+
+  !> One right-hand-side evaluation at the current state: halo copies
+  !> refreshed, pressure from the equation of state, then the optional
+  !> density-gradient pass (its halo values exchanged in turn), then (E1-E5).
+  subroutine solver_evaluate(s, env)
     type(solver_t), intent(inout) :: s
+    type(parallel_env_t), intent(in) :: env
     integer :: ntot
+    real(wp) :: t0
     associate(pt => s%parts)
+      t0 = wall_time()
+      call halo_refresh(s%halo, env, pt)
+      s%comm_time = s%comm_time + (wall_time() - t0)
       ntot = pt%n + pt%n_halo
       pt%p(1:ntot) = eos_pressure(s%eos, pt%rho(1:ntot))
-      if (s%rhs%diffusion == DIFF_ANTUONO) &
+      if (s%rhs%diffusion == DIFF_ANTUONO) then
         call rhs_density_gradient(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%nl, s%grad_rho)
+        t0 = wall_time()
+        call halo_refresh_field(s%halo, env, pt%n, s%grad_rho)
+        s%comm_time = s%comm_time + (wall_time() - t0)
+      end if
       call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
                         s%nl, s%drho, s%du)
     end associate
@@ -130,7 +210,9 @@ contains
   !> speed-up within the step), so the list is rebuilt when the displacement
   !> since the last build plus that reach could exceed half the skin, and a
   !> rebuild widens the skin when needed so that the list always covers at
-  !> least the coming step (numerics.skin is the minimum).
+  !> least the coming step (numerics.skin is the minimum).  A rebuild is
+  !> also done when s%force_rebuild is set (after each snapshot, so that a
+  !> run restarted from it goes through the same list history).
   subroutine solver_step(s, env, dt_limit, dt)
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
@@ -144,12 +226,14 @@ contains
     if (n > 0) umax = sqrt(maxval(sum(s%parts%u(:, 1:n)**2, dim=1)))
     umax = par_max(env, umax)
     reach = 1.25_wp * s%cfl * s%rhs%kernel%h * umax / (s%rhs%c0 + umax)
-    if (2 * (moved + reach) >= s%skin) then
+    if (2 * (moved + reach) >= s%skin .or. s%force_rebuild) then
       s%skin = max(s%skin_min, 2.2_wp * reach)
       call solver_rebuild(s, env)
+      s%force_rebuild = .false.
     end if
+    n = s%parts%n      ! migration may have changed it
 
-    call solver_evaluate(s)
+    call solver_evaluate(s, env)
     call solver_time_step(s, env, dt)
     dt = min(dt, dt_limit)
 
@@ -166,15 +250,15 @@ contains
         s%rhoa(1:n) = s%rhos(1:n) + dt / 6 * drho(1:n)
         call half_stage(0.5_wp * dt)
         ! k2 at y1; y2 = y0 + dt/2 k2
-        call solver_evaluate(s)
+        call solver_evaluate(s, env)
         call accumulate(dt / 3)
         call half_stage(0.5_wp * dt)
         ! k3 at y2; y3 = y0 + dt k3
-        call solver_evaluate(s)
+        call solver_evaluate(s, env)
         call accumulate(dt / 3)
         call half_stage(dt)
         ! k4 at y3; y = y0 + dt/6 (k1 + 2 k2 + 2 k3 + k4)
-        call solver_evaluate(s)
+        call solver_evaluate(s, env)
         x(:, 1:n) = s%xa(:, 1:n) + dt / 6 * u(:, 1:n)
         u(:, 1:n) = s%ua(:, 1:n) + dt / 6 * du(:, 1:n)
         rho(1:n) = s%rhoa(1:n) + dt / 6 * drho(1:n)
@@ -182,7 +266,7 @@ contains
         ! predictor to the half step, derivatives there, then the corrector;
         ! positions advance with the mean of the old and new velocities
         call half_stage(0.5_wp * dt)
-        call solver_evaluate(s)
+        call solver_evaluate(s, env)
         rho(1:n) = s%rhos(1:n) + dt * drho(1:n)
         u(:, 1:n) = s%us(:, 1:n) + dt * du(:, 1:n)
         x(:, 1:n) = s%xs(:, 1:n) + 0.5_wp * dt * (s%us(:, 1:n) + u(:, 1:n))

@@ -1,0 +1,416 @@
+!> Domain decomposition: which rank owns which part of space.
+!>
+!> Two kinds share one interface, so the halo and migration code serves both:
+!>  - slabs along one axis (the axis of largest extent of the particle
+!>    cloud), cut where the cumulative work reaches k/P of the total;
+!>  - an owner-of-cell map on a grid of cells, from a METIS partition of the
+!>    graph of occupied cells (weights: the work in each cell).
+!> owner(x) names the rank owning point x; ranks_near(x, R) lists the other
+!> ranks owning some point within R of x: a particle is copied to those as
+!> a halo, which is correct however thin a region is.
+module domain
+  use kinds, only: wp, i8
+  use parallel_env, only: parallel_env_t, par_sum, par_max, par_min, par_sum_array, &
+                          par_bcast_int
+  use metis_partition, only: partition_graph
+  implicit none
+  private
+  public :: domain_t, domain_owner, domain_ranks_near, domain_balance, domain_imbalance
+  public :: DECOMP_SLAB, DECOMP_METIS
+
+  integer, parameter :: DECOMP_SLAB = 1, DECOMP_METIS = 2
+
+  type :: domain_t
+    integer :: kind = DECOMP_SLAB
+    integer :: rank = 0, nranks = 1, dim = 2
+    ! slabs: rank r owns cuts(r) <= x(axis) < cuts(r + 1)
+    integer :: axis = 1
+    real(wp), allocatable :: cuts(:)            !< (0:nranks), cuts(0) = -huge, cuts(P) = huge
+    ! cell map: cell (i, j, k) >= 0 of size `cell` from `origin`; points
+    ! outside the grid belong to the nearest cell (coordinates clamped)
+    real(wp) :: origin(3) = 0, cell = 1
+    integer :: nc(3) = 1
+    integer, allocatable :: cell_owner(:)       !< (product(nc)), 0-based ranks
+    integer :: n_balances = 0
+  end type domain_t
+
+contains
+
+  !> The rank that owns point x.
+  pure integer function domain_owner(d, x) result(r)
+    type(domain_t), intent(in) :: d
+    real(wp), intent(in) :: x(3)
+    integer :: lo, hi, mid
+    if (d%nranks == 1) then
+      r = 0
+    else if (d%kind == DECOMP_SLAB) then
+      ! the last r with cuts(r) <= x(axis)
+      lo = 0
+      hi = d%nranks - 1
+      do while (lo < hi)
+        mid = (lo + hi + 1) / 2
+        if (d%cuts(mid) <= x(d%axis)) then
+          lo = mid
+        else
+          hi = mid - 1
+        end if
+      end do
+      r = lo
+    else
+      r = d%cell_owner(cell_index(d, cell_coords(d, x)))
+    end if
+  end function domain_owner
+
+  !> The ranks other than owner(x) that own some point within `radius` of
+  !> x, in ascending order (nr of them in ranks(1:nr)).
+  pure subroutine domain_ranks_near(d, x, radius, ranks, nr)
+    type(domain_t), intent(in) :: d
+    real(wp), intent(in) :: x(3), radius
+    integer, intent(inout) :: ranks(:)
+    integer, intent(out) :: nr
+    integer :: me, q, c(3), c0(3), layers, i, j, k, zr, o
+    nr = 0
+    if (d%nranks == 1) return
+    me = domain_owner(d, x)
+    if (d%kind == DECOMP_SLAB) then
+      do q = 0, d%nranks - 1
+        if (q == me) cycle
+        if (d%cuts(q) < x(d%axis) + radius .and. d%cuts(q + 1) > x(d%axis) - radius) then
+          nr = nr + 1
+          ranks(nr) = q
+        end if
+      end do
+    else
+      ! a point within `radius` lies at most `layers` cells away, and
+      ! clamping into the grid does not increase the distance in cells
+      layers = ceiling(radius / d%cell)
+      c0 = cell_coords(d, x)
+      zr = merge(layers, 0, d%dim == 3)
+      do k = -zr, zr
+        do j = -layers, layers
+          do i = -layers, layers
+            c = clamp_coords(d, c0 + [i, j, k])
+            o = d%cell_owner(cell_index(d, c))
+            if (o == me .or. any(ranks(1:nr) == o)) cycle
+            nr = nr + 1
+            ranks(nr) = o
+          end do
+        end do
+      end do
+      call sort_small(ranks(1:nr))
+    end if
+  end subroutine domain_ranks_near
+
+  pure subroutine sort_small(a)
+    integer, intent(inout) :: a(:)
+    integer :: i, j, v
+    do i = 2, size(a)
+      v = a(i)
+      j = i - 1
+      do while (j >= 1)
+        if (a(j) <= v) exit
+        a(j + 1) = a(j)
+        j = j - 1
+      end do
+      a(j + 1) = v
+    end do
+  end subroutine sort_small
+
+  pure function cell_coords(d, x) result(c)
+    type(domain_t), intent(in) :: d
+    real(wp), intent(in) :: x(3)
+    integer :: c(3)
+    real(wp) :: s(3)
+    s = (x - d%origin) / d%cell
+    ! clamp in real arithmetic first: far points must not overflow integers
+    s = max(0.0_wp, min(s, real(d%nc - 1, wp)))
+    c = int(s)
+    if (d%dim == 2) c(3) = 0
+  end function cell_coords
+
+  pure function clamp_coords(d, c) result(cc)
+    type(domain_t), intent(in) :: d
+    integer, intent(in) :: c(3)
+    integer :: cc(3)
+    cc = max(0, min(c, d%nc - 1))
+  end function clamp_coords
+
+  pure integer function cell_index(d, c)
+    type(domain_t), intent(in) :: d
+    integer, intent(in) :: c(3)
+    cell_index = 1 + c(1) + d%nc(1) * (c(2) + d%nc(2) * c(3))
+  end function cell_index
+
+  !> max over ranks of the local work divided by the mean work (1 = perfect).
+  function domain_imbalance(env, work) result(imb)
+    type(parallel_env_t), intent(in) :: env
+    real(wp), intent(in) :: work
+    real(wp) :: imb, total
+    total = par_sum(env, work)
+    imb = 1
+    if (total > 0) imb = par_max(env, work) / (total / env%nranks)
+  end function domain_imbalance
+
+  !> Recomputes the decomposition for the owned particles x(:, 1:n) with
+  !> work weights w(1:n) (1 per particle, or its number of pairs).  For
+  !> cell maps, `cell` is the cell size (at least the halo radius is best).
+  subroutine domain_balance(d, env, kind, dim, n, x, w, cell)
+    type(domain_t), intent(inout) :: d
+    type(parallel_env_t), intent(in) :: env
+    integer, intent(in) :: kind, dim, n
+    real(wp), intent(in) :: x(:, :), w(:), cell
+    d%kind = kind
+    d%dim = dim
+    d%rank = env%rank
+    d%nranks = env%nranks
+    d%n_balances = d%n_balances + 1
+    if (kind == DECOMP_SLAB) then
+      call balance_slabs(d, env, dim, n, x, w)
+    else
+      call balance_cells(d, env, dim, n, x, w, cell)
+    end if
+  end subroutine domain_balance
+
+  !> Slabs along the axis of largest global extent, each cut placed by
+  !> bisection where the global work below it reaches k/P of the total.
+  !> Weights are whole numbers, so the sums are exact and every rank finds
+  !> the same cuts.
+  subroutine balance_slabs(d, env, dim, n, x, w)
+    type(domain_t), intent(inout) :: d
+    type(parallel_env_t), intent(in) :: env
+    integer, intent(in) :: dim, n
+    real(wp), intent(in) :: x(:, :), w(:)
+    real(wp) :: lo(3), hi(3), total, target
+    real(wp), allocatable :: xs(:), cw(:), below(:), a(:), b(:)
+    integer, allocatable :: idx(:)
+    integer :: k, it, p, i
+    p = env%nranks
+    do k = 1, 3
+      lo(k) = huge(1.0_wp); hi(k) = -huge(1.0_wp)
+      if (n > 0) then
+        lo(k) = minval(x(k, 1:n)); hi(k) = maxval(x(k, 1:n))
+      end if
+      lo(k) = par_min(env, lo(k))
+      hi(k) = par_max(env, hi(k))
+    end do
+    d%axis = maxloc(hi(1:dim) - lo(1:dim), dim=1)
+    if (allocated(d%cuts)) deallocate(d%cuts)
+    allocate(d%cuts(0:p))
+    d%cuts(0) = -huge(1.0_wp)
+    d%cuts(p) = huge(1.0_wp)
+    if (p == 1) return
+    ! local coordinates sorted, with cumulative weights: work below a cut
+    ! is then a binary search
+    allocate(xs(n), cw(0:n), idx(n))
+    xs = x(d%axis, 1:n)
+    call sort_index(xs, idx)
+    xs = xs(idx)
+    cw(0) = 0
+    do i = 1, n
+      cw(i) = cw(i - 1) + w(idx(i))
+    end do
+    total = par_sum(env, cw(n))
+    allocate(below(p - 1), a(p - 1), b(p - 1))
+    a = lo(d%axis)
+    b = hi(d%axis) + 1e-12_wp * max(1.0_wp, abs(hi(d%axis)))
+    ! 60 halvings take the bracket to round-off
+    do it = 1, 60
+      do k = 1, p - 1
+        below(k) = cw(count_below(xs, 0.5_wp * (a(k) + b(k))))
+      end do
+      call par_sum_array(env, below)
+      do k = 1, p - 1
+        target = total * k / p
+        if (below(k) < target) then
+          a(k) = 0.5_wp * (a(k) + b(k))
+        else
+          b(k) = 0.5_wp * (a(k) + b(k))
+        end if
+      end do
+    end do
+    d%cuts(1:p - 1) = b
+  end subroutine balance_slabs
+
+  !> Number of sorted values strictly below v.
+  pure integer function count_below(xs, v) result(c)
+    real(wp), intent(in) :: xs(:), v
+    integer :: lo, hi, mid
+    lo = 0
+    hi = size(xs)
+    do while (lo < hi)
+      mid = (lo + hi + 1) / 2
+      if (xs(mid) < v) then
+        lo = mid
+      else
+        hi = mid - 1
+      end if
+    end do
+    c = lo
+  end function count_below
+
+  !> Indices that sort a ascending (merge sort: stable, O(n log n)).
+  subroutine sort_index(a, idx)
+    real(wp), intent(in) :: a(:)
+    integer, intent(out) :: idx(:)
+    integer, allocatable :: tmp(:)
+    integer :: n, width, i, lo, mid, hi, l, r, k
+    n = size(a)
+    idx = [(i, i = 1, n)]
+    allocate(tmp(n))
+    width = 1
+    do while (width < n)
+      do lo = 1, n, 2 * width
+        mid = min(lo + width, n + 1)
+        hi = min(lo + 2 * width, n + 1)
+        l = lo; r = mid; k = lo
+        do while (l < mid .and. r < hi)
+          if (a(idx(r)) < a(idx(l))) then
+            tmp(k) = idx(r); r = r + 1
+          else
+            tmp(k) = idx(l); l = l + 1
+          end if
+          k = k + 1
+        end do
+        do while (l < mid)
+          tmp(k) = idx(l); l = l + 1; k = k + 1
+        end do
+        do while (r < hi)
+          tmp(k) = idx(r); r = r + 1; k = k + 1
+        end do
+      end do
+      idx = tmp
+      width = 2 * width
+    end do
+  end subroutine sort_index
+
+  !> Owner-of-cell map from a METIS partition of the occupied cells: the
+  !> grid covers the global bounding box; every rank builds the same global
+  !> work-per-cell array, rank 0 partitions its graph (vertex weight =
+  !> work, an edge between cells that touch), the result is broadcast, and
+  !> empty cells take the owner of the nearest occupied cell (breadth-first
+  !> fill), so the map is total.
+  subroutine balance_cells(d, env, dim, n, x, w, cell)
+    type(domain_t), intent(inout) :: d
+    type(parallel_env_t), intent(in) :: env
+    integer, intent(in) :: dim, n
+    real(wp), intent(in) :: x(:, :), w(:), cell
+    real(wp) :: lo(3), hi(3)
+    real(wp), allocatable :: work(:)
+    integer, allocatable :: vid(:), part(:), xadj(:), adjncy(:), vwgt(:)
+    integer :: k, i, ncell, nv, c(3), nb(3), di, dj, dk, zr, ne, ci
+    do k = 1, 3
+      lo(k) = huge(1.0_wp); hi(k) = -huge(1.0_wp)
+      if (n > 0) then
+        lo(k) = minval(x(k, 1:n)); hi(k) = maxval(x(k, 1:n))
+      end if
+      lo(k) = par_min(env, lo(k))
+      hi(k) = par_max(env, hi(k))
+    end do
+    d%cell = cell
+    d%origin = lo
+    d%nc = 1
+    do k = 1, dim
+      d%nc(k) = int((hi(k) - lo(k)) / cell) + 1
+    end do
+    ncell = product(d%nc)
+    allocate(work(ncell))
+    work = 0
+    do i = 1, n
+      ci = cell_index(d, cell_coords(d, x(:, i)))
+      work(ci) = work(ci) + w(i)
+    end do
+    call par_sum_array(env, work)
+    if (allocated(d%cell_owner)) deallocate(d%cell_owner)
+    allocate(d%cell_owner(ncell))
+    d%cell_owner = -1
+    ! graph of occupied cells (0-based vertex numbers, CSR)
+    allocate(vid(ncell))
+    vid = -1
+    nv = 0
+    do ci = 1, ncell
+      if (work(ci) > 0) then
+        vid(ci) = nv
+        nv = nv + 1
+      end if
+    end do
+    allocate(xadj(nv + 1), vwgt(nv), adjncy(nv * 3**dim), part(nv))
+    zr = merge(1, 0, dim == 3)
+    ne = 0
+    xadj(1) = 0
+    do ci = 1, ncell
+      if (vid(ci) < 0) cycle
+      vwgt(vid(ci) + 1) = max(1, nint(work(ci)))
+      c = coords_of(d, ci)
+      do dk = -zr, zr
+        do dj = -1, 1
+          do di = -1, 1
+            if (di == 0 .and. dj == 0 .and. dk == 0) cycle
+            nb = c + [di, dj, dk]
+            if (any(nb < 0) .or. any(nb >= d%nc)) cycle
+            if (vid(cell_index(d, nb)) < 0) cycle
+            ne = ne + 1
+            adjncy(ne) = vid(cell_index(d, nb))
+          end do
+        end do
+      end do
+      xadj(vid(ci) + 2) = ne
+    end do
+    if (env%rank == 0) call partition_graph(nv, xadj, adjncy(1:ne), vwgt, env%nranks, part)
+    call par_bcast_int(env, part)
+    do ci = 1, ncell
+      if (vid(ci) >= 0) d%cell_owner(ci) = part(vid(ci) + 1)
+    end do
+    call fill_empty_cells(d)
+  end subroutine balance_cells
+
+  pure function coords_of(d, ci) result(c)
+    type(domain_t), intent(in) :: d
+    integer, intent(in) :: ci
+    integer :: c(3), r
+    r = ci - 1
+    c(1) = mod(r, d%nc(1))
+    r = r / d%nc(1)
+    c(2) = mod(r, d%nc(2))
+    c(3) = r / d%nc(2)
+  end function coords_of
+
+  !> Breadth-first fill: each empty cell takes the owner of the nearest
+  !> assigned cell (face neighbours, deterministic visiting order).
+  subroutine fill_empty_cells(d)
+    type(domain_t), intent(inout) :: d
+    integer, allocatable :: queue(:)
+    integer :: head, tail, ci, c(3), nb(3), k, s, nbi
+    integer, parameter :: faces(3, 6) = reshape([1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1, 0, &
+                                                 0, 0, 1, 0, 0, -1], [3, 6])
+    allocate(queue(size(d%cell_owner)))
+    tail = 0
+    do ci = 1, size(d%cell_owner)
+      if (d%cell_owner(ci) >= 0) then
+        tail = tail + 1
+        queue(tail) = ci
+      end if
+    end do
+    if (tail == 0) then
+      d%cell_owner = 0
+      return
+    end if
+    head = 0
+    do while (head < tail)
+      head = head + 1
+      ci = queue(head)
+      c = coords_of(d, ci)
+      do s = 1, 6
+        nb = c + faces(:, s)
+        if (any(nb < 0) .or. any(nb >= d%nc)) cycle
+        nbi = cell_index(d, nb)
+        if (d%cell_owner(nbi) >= 0) cycle
+        d%cell_owner(nbi) = d%cell_owner(ci)
+        tail = tail + 1
+        queue(tail) = nbi
+      end do
+    end do
+    k = count(d%cell_owner < 0)
+    if (k > 0) error stop 'fill_empty_cells: cells left without an owner'
+  end subroutine fill_empty_cells
+
+end module domain

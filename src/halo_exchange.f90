@@ -1,0 +1,271 @@
+!> Moving particles between ranks: migration of owned particles to the rank
+!> that owns their position, and halo copies of the particles within the
+!> list radius of other ranks' regions, refreshed before every right-hand
+!> side.  Counts travel by MPI_Alltoall, data by non-blocking point-to-point
+!> messages to the ranks concerned only.  Works for any domain_t (slabs or
+!> a cell map) through domain_owner and domain_ranks_near.
+module halo_exchange
+  use kinds, only: wp, i8
+  use particles, only: particles_t, particles_reserve
+  use domain, only: domain_t, domain_owner, domain_ranks_near
+  use parallel_env, only: parallel_env_t
+  use mpi_f08, only: MPI_Alltoall, MPI_Isend, MPI_Irecv, MPI_Waitall, MPI_Request, &
+                     MPI_INTEGER, MPI_DOUBLE_PRECISION, MPI_STATUSES_IGNORE
+  implicit none
+  private
+  public :: halo_t, migrate, halo_build, halo_refresh, halo_refresh_field
+
+  !> Who gets which halo copies: owned particles send_idx(send_start(q)+1 :
+  !> send_start(q+1)) go to rank q; copies from rank q land in slots
+  !> n + recv_start(q) + 1 .. n + recv_start(q+1).
+  type :: halo_t
+    integer, allocatable :: send_start(:), send_idx(:), recv_start(:)
+    integer :: n_sent = 0, n_received = 0
+  end type halo_t
+
+  integer, parameter :: MIGRATE_WORDS = 13   !< x(3), u(3), x0(3), rho, p, m, id
+  integer, parameter :: HALO_WORDS = 9       !< x(3), u(3), rho, m, id
+  integer, parameter :: REFRESH_WORDS = 7    !< x(3), u(3), rho
+
+contains
+
+  !> Sends every owned particle whose position belongs to another rank to
+  !> that rank and appends the ones received; returns how many left this rank.
+  subroutine migrate(env, d, parts, n_left)
+    type(parallel_env_t), intent(in) :: env
+    type(domain_t), intent(in) :: d
+    type(particles_t), intent(inout) :: parts
+    integer, intent(out) :: n_left
+    integer, allocatable :: dest(:), send_start(:), recv_start(:), fill(:), keep(:)
+    real(wp), allocatable :: sbuf(:, :), rbuf(:, :)
+    integer :: i, q, p, n, k, nrecv, nkeep
+    p = env%nranks
+    n = parts%n
+    n_left = 0
+    if (p == 1) return
+    allocate(dest(n))
+    do i = 1, n
+      dest(i) = domain_owner(d, parts%x(:, i))
+    end do
+    call counts_to_offsets(env, dest, send_start, recv_start, fill)
+    allocate(sbuf(MIGRATE_WORDS, max(1, send_start(p))))
+    do i = 1, n
+      q = dest(i)
+      if (q == env%rank) cycle
+      fill(q) = fill(q) + 1
+      k = fill(q)
+      sbuf(1:3, k) = parts%x(:, i)
+      sbuf(4:6, k) = parts%u(:, i)
+      sbuf(7:9, k) = parts%x0(:, i)
+      sbuf(10, k) = parts%rho(i)
+      sbuf(11, k) = parts%p(i)
+      sbuf(12, k) = parts%m(i)
+      sbuf(13, k) = transfer(parts%id(i), 1.0_wp)
+    end do
+    nrecv = recv_start(p)
+    allocate(rbuf(MIGRATE_WORDS, max(1, nrecv)))
+    call exchange(env, MIGRATE_WORDS, send_start, sbuf, recv_start, rbuf)
+    ! keep the particles that stay, in their order, then append arrivals
+    keep = pack([(i, i = 1, n)], dest == env%rank)
+    nkeep = size(keep)
+    n_left = n - nkeep
+    parts%x(:, 1:nkeep) = parts%x(:, keep)
+    parts%u(:, 1:nkeep) = parts%u(:, keep)
+    parts%x0(:, 1:nkeep) = parts%x0(:, keep)
+    parts%rho(1:nkeep) = parts%rho(keep)
+    parts%p(1:nkeep) = parts%p(keep)
+    parts%m(1:nkeep) = parts%m(keep)
+    parts%id(1:nkeep) = parts%id(keep)
+    call particles_reserve(parts, nkeep + nrecv)
+    do k = 1, nrecv
+      i = nkeep + k
+      parts%x(:, i) = rbuf(1:3, k)
+      parts%u(:, i) = rbuf(4:6, k)
+      parts%x0(:, i) = rbuf(7:9, k)
+      parts%rho(i) = rbuf(10, k)
+      parts%p(i) = rbuf(11, k)
+      parts%m(i) = rbuf(12, k)
+      parts%id(i) = transfer(rbuf(13, k), 1_i8)
+    end do
+    parts%n = nkeep + nrecv
+    parts%n_halo = 0
+  end subroutine migrate
+
+  !> Decides the halo (every owned particle within `radius` of another
+  !> rank's region is copied there) and brings in the copies from the other
+  !> ranks as particles n+1 .. n+n_halo.
+  subroutine halo_build(h, env, d, parts, radius)
+    type(halo_t), intent(inout) :: h
+    type(parallel_env_t), intent(in) :: env
+    type(domain_t), intent(in) :: d
+    type(particles_t), intent(inout) :: parts
+    real(wp), intent(in) :: radius
+    integer, allocatable :: counts(:), rcounts(:), fill(:)
+    real(wp), allocatable :: sbuf(:, :), rbuf(:, :)
+    integer :: ranks(env%nranks), nr, i, q, p, k, n, j, pass
+    p = env%nranks
+    n = parts%n
+    parts%n_halo = 0
+    if (allocated(h%send_start)) deallocate(h%send_start, h%send_idx, h%recv_start)
+    allocate(h%send_start(0:p), h%recv_start(0:p), counts(0:p - 1), rcounts(0:p - 1))
+    h%send_start = 0
+    h%recv_start = 0
+    h%n_sent = 0
+    h%n_received = 0
+    if (p == 1) then
+      allocate(h%send_idx(0))
+      return
+    end if
+    ! two passes over the particles: count, then fill the send lists
+    counts = 0
+    do pass = 1, 2
+      if (pass == 2) then
+        do q = 0, p - 1
+          h%send_start(q + 1) = h%send_start(q) + counts(q)
+        end do
+        allocate(h%send_idx(h%send_start(p)), fill(0:p - 1))
+        fill = h%send_start(0:p - 1)
+      end if
+      do i = 1, n
+        call domain_ranks_near(d, parts%x(:, i), radius, ranks, nr)
+        do j = 1, nr
+          q = ranks(j)
+          if (pass == 1) then
+            counts(q) = counts(q) + 1
+          else
+            fill(q) = fill(q) + 1
+            h%send_idx(fill(q)) = i
+          end if
+        end do
+      end do
+    end do
+    call MPI_Alltoall(counts, 1, MPI_INTEGER, rcounts, 1, MPI_INTEGER, env%comm)
+    do q = 0, p - 1
+      h%recv_start(q + 1) = h%recv_start(q) + rcounts(q)
+    end do
+    h%n_sent = h%send_start(p)
+    h%n_received = h%recv_start(p)
+    allocate(sbuf(HALO_WORDS, max(1, h%n_sent)), rbuf(HALO_WORDS, max(1, h%n_received)))
+    do k = 1, h%n_sent
+      i = h%send_idx(k)
+      sbuf(1:3, k) = parts%x(:, i)
+      sbuf(4:6, k) = parts%u(:, i)
+      sbuf(7, k) = parts%rho(i)
+      sbuf(8, k) = parts%m(i)
+      sbuf(9, k) = transfer(parts%id(i), 1.0_wp)
+    end do
+    call exchange(env, HALO_WORDS, h%send_start, sbuf, h%recv_start, rbuf)
+    call particles_reserve(parts, n + h%n_received)
+    do k = 1, h%n_received
+      i = n + k
+      parts%x(:, i) = rbuf(1:3, k)
+      parts%u(:, i) = rbuf(4:6, k)
+      parts%rho(i) = rbuf(7, k)
+      parts%m(i) = rbuf(8, k)
+      parts%id(i) = transfer(rbuf(9, k), 1_i8)
+      parts%x0(:, i) = 0
+    end do
+    parts%n_halo = h%n_received
+  end subroutine halo_build
+
+  !> Brings the halo copies' positions, velocities and densities up to date.
+  subroutine halo_refresh(h, env, parts)
+    type(halo_t), intent(in) :: h
+    type(parallel_env_t), intent(in) :: env
+    type(particles_t), intent(inout) :: parts
+    real(wp), allocatable :: sbuf(:, :), rbuf(:, :)
+    integer :: k, i, n
+    if (env%nranks == 1) return
+    n = parts%n
+    allocate(sbuf(REFRESH_WORDS, max(1, h%n_sent)), rbuf(REFRESH_WORDS, max(1, h%n_received)))
+    do k = 1, h%n_sent
+      i = h%send_idx(k)
+      sbuf(1:3, k) = parts%x(:, i)
+      sbuf(4:6, k) = parts%u(:, i)
+      sbuf(7, k) = parts%rho(i)
+    end do
+    call exchange(env, REFRESH_WORDS, h%send_start, sbuf, h%recv_start, rbuf)
+    do k = 1, h%n_received
+      i = n + k
+      parts%x(:, i) = rbuf(1:3, k)
+      parts%u(:, i) = rbuf(4:6, k)
+      parts%rho(i) = rbuf(7, k)
+    end do
+  end subroutine halo_refresh
+
+  !> Copies a per-particle field a(ncomp, :) of the owned particles into the
+  !> halo slots n+1.. of the other ranks (e.g. the density gradient).
+  subroutine halo_refresh_field(h, env, n, a)
+    type(halo_t), intent(in) :: h
+    type(parallel_env_t), intent(in) :: env
+    integer, intent(in) :: n
+    real(wp), intent(inout) :: a(:, :)
+    real(wp), allocatable :: sbuf(:, :), rbuf(:, :)
+    integer :: k, nc
+    if (env%nranks == 1) return
+    nc = size(a, 1)
+    allocate(sbuf(nc, max(1, h%n_sent)), rbuf(nc, max(1, h%n_received)))
+    do k = 1, h%n_sent
+      sbuf(:, k) = a(:, h%send_idx(k))
+    end do
+    call exchange(env, nc, h%send_start, sbuf, h%recv_start, rbuf)
+    do k = 1, h%n_received
+      a(:, n + k) = rbuf(:, k)
+    end do
+  end subroutine halo_refresh_field
+
+  !> Send offsets from the destination of each owned particle (this rank's
+  !> own particles excluded), the matching receive offsets, and the fill
+  !> pointers for packing.
+  subroutine counts_to_offsets(env, dest, send_start, recv_start, fill)
+    type(parallel_env_t), intent(in) :: env
+    integer, intent(in) :: dest(:)
+    integer, allocatable, intent(out) :: send_start(:), recv_start(:), fill(:)
+    integer, allocatable :: counts(:), rcounts(:)
+    integer :: i, q, p
+    p = env%nranks
+    allocate(counts(0:p - 1), rcounts(0:p - 1), send_start(0:p), recv_start(0:p), fill(0:p - 1))
+    counts = 0
+    do i = 1, size(dest)
+      if (dest(i) /= env%rank) counts(dest(i)) = counts(dest(i)) + 1
+    end do
+    call MPI_Alltoall(counts, 1, MPI_INTEGER, rcounts, 1, MPI_INTEGER, env%comm)
+    send_start(0) = 0
+    recv_start(0) = 0
+    do q = 0, p - 1
+      send_start(q + 1) = send_start(q) + counts(q)
+      recv_start(q + 1) = recv_start(q) + rcounts(q)
+    end do
+    fill = send_start(0:p - 1)
+  end subroutine counts_to_offsets
+
+  !> Point-to-point exchange of columns of `words` reals: columns
+  !> send_start(q)+1 .. send_start(q+1) of sbuf go to rank q, and columns
+  !> recv_start(q)+1 .. recv_start(q+1) of rbuf come from rank q.
+  subroutine exchange(env, words, send_start, sbuf, recv_start, rbuf)
+    type(parallel_env_t), intent(in) :: env
+    integer, intent(in) :: words, send_start(0:), recv_start(0:)
+    real(wp), intent(in), contiguous, target :: sbuf(:, :)
+    real(wp), intent(inout), contiguous, target :: rbuf(:, :)
+    type(MPI_Request), allocatable :: req(:)
+    integer :: q, nreq, cnt
+    allocate(req(2 * env%nranks))
+    nreq = 0
+    do q = 0, env%nranks - 1
+      cnt = recv_start(q + 1) - recv_start(q)
+      if (cnt == 0 .or. q == env%rank) cycle
+      nreq = nreq + 1
+      call MPI_Irecv(rbuf(:, recv_start(q) + 1:), words * cnt, MPI_DOUBLE_PRECISION, q, 17, &
+                     env%comm, req(nreq))
+    end do
+    do q = 0, env%nranks - 1
+      cnt = send_start(q + 1) - send_start(q)
+      if (cnt == 0 .or. q == env%rank) cycle
+      nreq = nreq + 1
+      call MPI_Isend(sbuf(:, send_start(q) + 1:), words * cnt, MPI_DOUBLE_PRECISION, q, 17, &
+                     env%comm, req(nreq))
+    end do
+    call MPI_Waitall(nreq, req(1:nreq), MPI_STATUSES_IGNORE)
+  end subroutine exchange
+
+end module halo_exchange
