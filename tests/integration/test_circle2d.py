@@ -127,14 +127,6 @@ def test_bad_input_writes_nothing():
     assert not d.exists()
 
 
-def test_more_ranks_than_supported_refused():
-    d = scratch("ranks") / "never"
-    p = run_sph(["input/circle2d.nml", f"output.dir={d}", "particles.n=200"], np=2)
-    assert p.returncode != 0
-    assert "one rank" in p.stderr, p.stderr
-    assert not d.exists()
-
-
 def test_help_and_defaults():
     p = run_sph(["--help"])
     assert p.returncode == 0 and "usage" in p.stdout
