@@ -1,0 +1,105 @@
+!> Restart from a snapshot: the particle state, the time and the step count
+!> it was written at, and the history of the run directory (the XDMF index
+!> of the earlier snapshots; the time series is reloaded by the caller).
+!> Any number of ranks can read a snapshot written by any other: each reads
+!> a block of rows, and the first list build migrates them to their owners.
+module restart
+  use kinds, only: wp, i8
+  use particles, only: particles_t, particles_allocate
+  use parallel_env, only: parallel_env_t
+  use fileutil, only: join_path, file_exists, base_name
+  use snapshot_io, only: snapshot_t, snapshot_read, snapshot_find_field, snapshot_filename, &
+                         xdmf_index_t, xdmf_add
+  implicit none
+  private
+  public :: restart_read, restart_index_history, snapshot_number
+
+contains
+
+  !> Loads the particles of snapshot `path` (this rank's block of rows) into
+  !> parts, with the time and step it was written at.  The snapshot must be
+  !> of the same case and dimension and hold `position_initial`.
+  subroutine restart_read(env, path, case_name, dim, parts, t, step, ok, errmsg)
+    type(parallel_env_t), intent(in) :: env
+    character(len=*), intent(in) :: path, case_name
+    integer, intent(in) :: dim
+    type(particles_t), intent(inout) :: parts
+    real(wp), intent(out) :: t
+    integer, intent(out) :: step
+    logical, intent(out) :: ok
+    character(len=:), allocatable, intent(out) :: errmsg
+    type(snapshot_t) :: snap
+    integer :: k, n, kx0
+    t = 0
+    step = 0
+    call snapshot_read(env%comm, path, snap, ok, errmsg)
+    if (.not. ok) then
+      errmsg = '&run restart = ''' // path // ''': ' // errmsg
+      return
+    end if
+    if (snap%case_name /= case_name .or. snap%dim /= dim) then
+      ok = .false.
+      errmsg = '&run restart = ''' // path // ''' is a snapshot of case ''' // &
+               snap%case_name // ''': it cannot restart case ''' // case_name // ''''
+      return
+    end if
+    kx0 = snapshot_find_field(snap, 'position_initial')
+    if (kx0 == 0) then
+      ok = .false.
+      errmsg = '&run restart = ''' // path // ''' has no position_initial dataset ' // &
+               '(written by an older version): it cannot be restarted from'
+      return
+    end if
+    n = snap%n_local
+    call particles_allocate(parts, dim, max(n, 1))
+    parts%n = n
+    do k = 1, n
+      parts%x(1:dim, k) = snap%x(1:dim, k)
+      parts%u(1:dim, k) = snap%u(1:dim, k)
+      parts%x0(1:dim, k) = snap%extra(kx0)%v(1:dim, k)
+      parts%rho(k) = snap%rho(k)
+      parts%p(k) = snap%p(k)
+      parts%m(k) = snap%m(k)
+      parts%id(k) = snap%id(k)
+    end do
+    t = snap%time
+    step = snap%step
+  end subroutine restart_read
+
+  !> The number k of a snapshot file name snap_k.h5 (-1 for another name).
+  integer function snapshot_number(path) result(k)
+    character(len=*), intent(in) :: path
+    character(len=:), allocatable :: b
+    integer :: ios
+    b = base_name(path)
+    k = -1
+    if (len(b) /= len('snap_00000.h5')) return
+    if (b(1:5) /= 'snap_' .or. b(11:13) /= '.h5') return
+    read(b(6:10), '(i5)', iostat=ios) k
+    if (ios /= 0) k = -1
+  end function snapshot_number
+
+  !> Puts the snapshots 0 .. next-1 that exist in `dir` back into the XDMF
+  !> index (their headers only are read), so that the index of a restarted
+  !> run keeps the earlier times.
+  subroutine restart_index_history(env, dir, next, index, ok, errmsg)
+    type(parallel_env_t), intent(in) :: env
+    character(len=*), intent(in) :: dir
+    integer, intent(in) :: next
+    type(xdmf_index_t), intent(inout) :: index
+    logical, intent(out) :: ok
+    character(len=:), allocatable, intent(out) :: errmsg
+    type(snapshot_t) :: snap
+    integer :: k
+    ok = .true.
+    errmsg = ''
+    do k = 0, next - 1
+      if (.not. file_exists(join_path(dir, snapshot_filename(k)))) cycle
+      call snapshot_read(env%comm, join_path(dir, snapshot_filename(k)), snap, ok, errmsg, &
+                         header_only=.true.)
+      if (.not. ok) return
+      call xdmf_add(index, snap%time, snapshot_filename(k), snap%n_global, snap%dim, snap%extra)
+    end do
+  end subroutine restart_index_history
+
+end module restart
