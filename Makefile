@@ -92,6 +92,13 @@ unit: $(BUILD)/unit_tests
 test: sph $(BUILD)/unit_tests
 	@BUILD=$(BUILD) PYTHON=$(PYTHON) NP_TEST="$(NP_TEST)" bash tests/run_tests.sh
 
+# The validation study behind doc/validation.md: runs circle2d at four
+# resolutions, ellipsoid3d at two and the square patches, then the errors,
+# convergence orders and figures of postproc/ (doc/postproc.md).  Runs go to
+# runs/validate/; VALIDATE_ARGS passes options (e.g. --reuse, --quick).
+validate: sph
+	$(PYTHON) postproc/validate $(VALIDATE_ARGS)
+
 debug:
 	$(MAKE) BUILD=build/debug \
 	  OPTFLAGS="-O0 -g -fcheck=all -ffpe-trap=invalid,zero,overflow -fbacktrace -finit-real=snan"

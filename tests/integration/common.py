@@ -7,7 +7,8 @@ import subprocess
 import tempfile
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-SPH = ROOT / "sph"
+# SPH_BINARY runs the tests against another build (e.g. build/x/sph) than ./sph.
+SPH = pathlib.Path(os.environ.get("SPH_BINARY", ROOT / "sph")).resolve()
 
 ENV = dict(os.environ)
 ENV.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",

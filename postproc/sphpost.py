@@ -1,0 +1,645 @@
+"""sphpost: the shared library of the post-processing scripts in postproc/.
+
+Reads an sph run directory (doc/output.md), knows each case's scales and
+lowest acoustic frequency (DESIGN.md X6), low-pass filters probe signals with
+FFTW (a type-I discrete cosine transform, FFTW_REDFT00, through pyFFTW) and
+computes the paper's errors against the exact solution.  The scripts
+(errors, filter, convergence, plots, validate) are thin command-line layers
+over it; doc/postproc.md documents them and the filter design.
+
+Run with /usr/bin/python3 (Debian's numpy, h5py, matplotlib, pyfftw).
+"""
+import csv
+import glob
+import math
+import os
+import re
+import sys
+
+import numpy as np
+
+# ---------------------------------------------------------------------------
+# Errors for the user
+# ---------------------------------------------------------------------------
+
+
+class PostprocError(Exception):
+    """An error the user can fix (wrong directory, missing file, bad option):
+    the scripts print its message alone and exit with status 2."""
+
+
+def main_guard(prog, fn, argv):
+    """Runs fn(argv); turns a PostprocError into a one-line message on stderr
+    and exit status 2."""
+    try:
+        return fn(argv)
+    except PostprocError as e:
+        print(f"{prog}: error: {e}", file=sys.stderr)
+        return 2
+
+
+# ---------------------------------------------------------------------------
+# The input file written into the run directory (input.nml)
+# ---------------------------------------------------------------------------
+
+def _strip_comment(line):
+    out, quote = [], None
+    for ch in line:
+        if quote:
+            if ch == quote:
+                quote = None
+        elif ch in "'\"":
+            quote = ch
+        elif ch == "!":
+            break
+        out.append(ch)
+    return "".join(out)
+
+
+def _split_values(text):
+    vals, cur, quote = [], [], None
+    for ch in text:
+        if quote:
+            cur.append(ch)
+            if ch == quote:
+                quote = None
+        elif ch in "'\"":
+            quote = ch
+            cur.append(ch)
+        elif ch == ",":
+            vals.append("".join(cur).strip())
+            cur = []
+        else:
+            cur.append(ch)
+    if "".join(cur).strip():
+        vals.append("".join(cur).strip())
+    return vals
+
+
+def _value(tok):
+    if len(tok) >= 2 and tok[0] == tok[-1] and tok[0] in "'\"":
+        return tok[1:-1].replace(tok[0] * 2, tok[0])
+    low = tok.lower()
+    if low in (".true.", "t", ".t."):
+        return True
+    if low in (".false.", "f", ".f."):
+        return False
+    try:
+        return int(tok)
+    except ValueError:
+        pass
+    try:
+        return float(low.replace("d", "e"))
+    except ValueError:
+        return tok
+
+
+def read_namelist(path):
+    """The effective input that sph writes into a run directory, as
+    {group: {variable: value}}; names in lower case; a list value for several
+    comma-separated items.  Only the subset of namelist syntax that sph writes
+    (one item per line) is understood."""
+    groups, cur = {}, None
+    with open(path) as f:
+        for raw in f:
+            line = _strip_comment(raw).strip()
+            if not line:
+                continue
+            if line.startswith("&"):
+                name = line[1:].split()[0].lower() if len(line) > 1 else ""
+                cur = groups.setdefault(name, {})
+                rest = line[1 + len(name):].strip()
+                if rest == "/":
+                    cur = None
+                continue
+            if line == "/":
+                cur = None
+                continue
+            if cur is None or "=" not in line:
+                continue
+            key, val = line.split("=", 1)
+            val = val.strip()
+            if val.endswith("/"):
+                val = val[:-1].strip()
+            items = [_value(v) for v in _split_values(val)]
+            cur[key.strip().lower()] = items[0] if len(items) == 1 else items
+    return groups
+
+
+# ---------------------------------------------------------------------------
+# Cases: scales and the lowest acoustic frequency (DESIGN.md X6)
+# ---------------------------------------------------------------------------
+
+# First zero of the Bessel function J0: the lowest Dirichlet (p = 0 on the
+# free surface) acoustic mode of a disc of radius R is f = J0_ZERO c0/(2 pi R).
+J0_ZERO = 2.404825557695773
+
+
+class CaseInfo:
+    """What the post-processing needs to know about a run's case.
+
+    name          case name (circle2d, ellipsoid3d, square_rotation, square_vortical)
+    dim           2 or 3
+    rho0, c0      reference density and speed of sound
+    length        R (stretching cases) or L (squares)
+    rate          the flow's rate: A0, omega, or V0/L; its time scale is 1/rate
+    time_label    how times are written, e.g. 't A0'
+    p_unit        the pressure unit of the paper's plots (rho A0^2 R^2, rho omega^2 L^2, rho V0^2)
+    p_unit_label  its name
+    f_acoustic    the lowest acoustic frequency of the patch at t = 0, in
+                  cycles per unit time (DESIGN.md X6; sphere: c0/(2R), the
+                  first zero of sin(kr)/r).  By the Faber-Krahn inequality the
+                  disc (ball) has the lowest Dirichlet eigenvalue among all
+                  shapes of equal area (volume), so the stretching patches
+                  never go below their initial value; a deformed square could
+                  fall to at most 4 % below its f0 (the disc of equal area).
+    notes         warnings gathered while reading (e.g. defaults assumed)
+    """
+
+    def __init__(self, name, dim, rho0, c0, length, rate, time_label, p_unit,
+                 p_unit_label, f_acoustic, notes=()):
+        self.name, self.dim, self.rho0, self.c0 = name, dim, rho0, c0
+        self.length, self.rate = length, rate
+        self.time_label, self.p_unit, self.p_unit_label = time_label, p_unit, p_unit_label
+        self.f_acoustic = f_acoustic
+        self.notes = list(notes)
+
+    @property
+    def stretching(self):
+        return self.name in ("circle2d", "ellipsoid3d")
+
+    @property
+    def square(self):
+        return self.name.startswith("square")
+
+
+def _pick(group, names, default, notes, what):
+    for n in names:
+        if n in group:
+            return float(group[n])
+    notes.append(f"{what} not found in input.nml; assumed {default}")
+    return default
+
+
+def case_info(nml, case=None, dim=None):
+    """CaseInfo from the parsed input.nml (nml may be {} when absent, then
+    the case name must be given, e.g. from a snapshot's attributes)."""
+    notes = []
+    run = nml.get("run", {})
+    name = (case or run.get("case") or "").lower()
+    phys = nml.get("physics", {})
+    rho0 = float(phys.get("rho0", 1.0))
+    c0 = float(phys.get("c0", 10.0))
+    if not nml:
+        notes.append("no input.nml: assumed rho0 = 1, c0 = 10 and unit scales")
+    if name == "circle2d":
+        g = nml.get("circle2d", {})
+        r = float(g.get("radius", 1.0))
+        a0 = float(g.get("a0", 1.0))
+        return CaseInfo(name, 2, rho0, c0, r, a0, "t A0", rho0 * a0**2 * r**2,
+                        "rho A0^2 R^2", J0_ZERO * c0 / (2 * math.pi * r), notes)
+    if name == "ellipsoid3d":
+        g = nml.get("ellipsoid3d", {})
+        r = float(g.get("radius", 1.0))
+        a0 = float(g.get("a0", 1.0))
+        return CaseInfo(name, 3, rho0, c0, r, a0, "t A0", rho0 * a0**2 * r**2,
+                        "rho A0^2 R^2", c0 / (2 * r), notes)
+    if name == "square_rotation":
+        # Variable names of issue 5's input/square_rotation.nml; the first
+        # one found is used.
+        g = nml.get("square_rotation", {})
+        side = _pick(g, ("side", "l", "length"), 1.0, notes, "square_rotation side")
+        omega = _pick(g, ("omega",), 1.0, notes, "square_rotation omega")
+        return CaseInfo(name, 2, rho0, c0, side, omega, "t omega",
+                        rho0 * omega**2 * side**2, "rho omega^2 L^2",
+                        c0 / (math.sqrt(2) * side), notes)
+    if name == "square_vortical":
+        g = nml.get("square_vortical", {})
+        side = _pick(g, ("side", "l", "length"), 1.0, notes, "square_vortical side")
+        v0 = _pick(g, ("v0",), 1.0, notes, "square_vortical v0")
+        return CaseInfo(name, 2, rho0, c0, side, v0 / side, "t V0/L", rho0 * v0**2,
+                        "rho V0^2", c0 / (math.sqrt(2) * side), notes)
+    raise PostprocError(f"unknown case '{name}': the post-processing knows circle2d, "
+                        "ellipsoid3d, square_rotation and square_vortical")
+
+
+# ---------------------------------------------------------------------------
+# A run directory
+# ---------------------------------------------------------------------------
+
+def read_timeseries(path):
+    """timeseries.csv as {column: float64 array} in file order."""
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    if not rows:
+        raise PostprocError(f"{path} is empty")
+    header, data = rows[0], rows[1:]
+    if not data:
+        raise PostprocError(f"{path} has a header but no rows")
+    arr = np.array([[float(v) for v in r] for r in data], dtype=float)
+    return {name: arr[:, k] for k, name in enumerate(header)}
+
+
+class Run:
+    """An sph run directory: its input, time series and snapshots.
+
+    Raises PostprocError with a clear message when the directory is not one.
+    """
+
+    def __init__(self, path):
+        self.path = os.path.abspath(str(path))
+        if not os.path.exists(self.path):
+            raise PostprocError(f"run directory '{path}' does not exist")
+        if not os.path.isdir(self.path):
+            raise PostprocError(f"'{path}' is not a directory (give the run directory, "
+                                "output.dir of the run)")
+        ts = os.path.join(self.path, "timeseries.csv")
+        self.snapshots = sorted(glob.glob(os.path.join(self.path, "snap_*.h5")))
+        if not os.path.exists(ts):
+            raise PostprocError(f"'{path}' has no timeseries.csv: is it the output.dir of an "
+                                "sph run? (a run writes it at its first snapshot)")
+        self.ts = read_timeseries(ts)
+        nml_path = os.path.join(self.path, "input.nml")
+        self.nml = read_namelist(nml_path) if os.path.exists(nml_path) else {}
+        case = None
+        dim = None
+        if not self.nml.get("run", {}).get("case"):
+            if not self.snapshots:
+                raise PostprocError(f"'{path}' has neither input.nml nor snapshots: "
+                                    "cannot tell the case")
+            attrs = self.snapshot_attrs(self.snapshots[0])
+            case, dim = attrs["case"], attrs["dim"]
+        self.case = case_info(self.nml, case, dim)
+        self.time = self.ts["time"]
+        self._n = None
+
+    # -- snapshots ---------------------------------------------------------
+    @staticmethod
+    def snapshot_attrs(path):
+        import h5py
+        with h5py.File(path, "r") as f:
+            a = dict(f.attrs)
+        c = a.get("case", b"")
+        a["case"] = (c.decode() if isinstance(c, bytes) else str(c)).strip()
+        a["time"] = float(a["time"])
+        a["dim"] = int(a["dim"])
+        return a
+
+    def snapshot_times(self):
+        return np.array([self.snapshot_attrs(p)["time"] for p in self.snapshots])
+
+    def snapshot(self, index):
+        """Snapshot `index` (negative counts from the end) as a dict of arrays
+        sorted by particle id, plus 'attrs'."""
+        import h5py
+        path = self.snapshots[index]
+        with h5py.File(path, "r") as f:
+            order = np.argsort(f["id"][:])
+            out = {k: f[k][:][order] for k in f if k != "connectivity"}
+        out["attrs"] = self.snapshot_attrs(path)
+        return out
+
+    @property
+    def n_particles(self):
+        if self._n is None:
+            if self.snapshots:
+                import h5py
+                with h5py.File(self.snapshots[0], "r") as f:
+                    self._n = int(f["position"].shape[0])
+            else:
+                self._n = int(self.nml.get("particles", {}).get("n", 0))
+        return self._n
+
+    @property
+    def dx(self):
+        """Equivalent particle spacing (volume per particle)^(1/dim): the
+        initial patch's area pi R^2 / volume 4/3 pi R^3 / square L^2."""
+        c = self.case
+        vol = {"circle2d": math.pi * c.length**2,
+               "ellipsoid3d": 4 / 3 * math.pi * c.length**3}.get(c.name, c.length**2)
+        return (vol / self.n_particles) ** (1 / c.dim)
+
+    def column(self, name):
+        if name not in self.ts:
+            raise PostprocError(f"{self.path}/timeseries.csv has no column '{name}' "
+                                f"(case {self.case.name})")
+        return self.ts[name]
+
+    def centre_probe(self):
+        """Column name of the probe at the centre (all coordinates 0), or None."""
+        out = self.nml.get("output", {})
+        n = int(out.get("n_probes", 1)) if self.nml else 1
+        for k in range(1, n + 1):
+            key = f"p_probe_{k}"
+            if key not in self.ts:
+                continue
+            pos = [0.0, 0.0, 0.0]
+            for i in range(3):
+                v = out.get(f"probes({i + 1},{k})")
+                if v is not None:
+                    pos[i] = float(v)
+            sec = out.get(f"probes(1:3,{k})")
+            if isinstance(sec, list):
+                pos = [float(v) for v in sec[:3]]
+            if all(abs(p) < 1e-12 for p in pos[:self.case.dim]):
+                return key
+        return None
+
+
+def solver_summary(text):
+    """The solver's closing summary (its stdout) as a dict of numbers in %:
+    'mean_axis', 'mean_pos', 'mean_vel', 'mean_p_raw', 'n_samples'."""
+    pats = {"mean_axis": r"max semi-axis error\s+(\S+) %",
+            "mean_pos": r"Time-averaged.*?RMS position error\s+(\S+) %",
+            "mean_vel": r"Time-averaged.*?RMS velocity error\s+(\S+) %",
+            "mean_p_raw": r"centre pressure \(raw\)\s+(\S+) % of P\(0\)",
+            "n_samples": r"Time-averaged over (\d+) samples"}
+    out = {}
+    for k, p in pats.items():
+        m = re.search(p, text, re.S)
+        if m:
+            out[k] = float(m.group(1))
+    return out
+
+
+# ---------------------------------------------------------------------------
+# Exact solution of the stretching patch (DESIGN.md X1), for tests and plots
+# ---------------------------------------------------------------------------
+
+def exact_ellipse(t, rates=(-1.0, 1.0), radius=1.0, rho=1.0):
+    """Exact semi-axes a_k(t) (shape (len(t), dim)), rates alpha_k(t) and
+    centre pressure P(t) of the stretching patch with alpha_k(0) = rates:
+    a_k' = alpha_k a_k, alpha_k' = 2P/(rho a_k^2) - alpha_k^2,
+    P/rho = Sum alpha_k^2 / (2 Sum 1/a_k^2).  Integrated by scipy's DOP853 to
+    1e-12 relative."""
+    from scipy.integrate import solve_ivp
+    t = np.atleast_1d(np.asarray(t, dtype=float))
+    rates = np.asarray(rates, dtype=float)
+    d = len(rates)
+
+    def rhs(_, s):
+        a, al = s[:d], s[d:]
+        p = np.sum(al**2) / (2 * np.sum(1 / a**2))
+        return np.concatenate([al * a, 2 * p / a**2 - al**2])
+
+    tt = np.unique(np.concatenate([[0.0], t]))
+    sol = solve_ivp(rhs, (0.0, tt[-1]), np.concatenate([np.full(d, radius), rates]),
+                    t_eval=tt, rtol=1e-12, atol=1e-14, method="DOP853")
+    idx = np.searchsorted(tt, t)
+    a = sol.y[:d, idx].T
+    al = sol.y[d:, idx].T
+    p = rho * np.sum(al**2, axis=1) / (2 * np.sum(1 / a**2, axis=1))
+    return a, al, p
+
+
+# ---------------------------------------------------------------------------
+# Low-pass filtering by the type-I DCT (FFTW REDFT00)
+# ---------------------------------------------------------------------------
+
+def _fftw():
+    try:
+        import pyfftw
+    except ImportError as e:
+        raise PostprocError("the filter needs pyFFTW: apt-get install python3-pyfftw "
+                            "(and run the scripts with /usr/bin/python3)") from e
+    return pyfftw
+
+
+def dct1(x):
+    """FFTW's REDFT00 of x (unnormalised DCT-I, the DFT of the even extension
+    x_0 .. x_{M-1} .. x_1 of period 2(M-1)):
+    Y_k = x_0 + (-1)^k x_{M-1} + 2 Sum_{j=1}^{M-2} x_j cos(pi j k/(M-1)).
+    Applied twice it multiplies by 2(M-1)."""
+    pyfftw = _fftw()
+    x = np.asarray(x, dtype=float)
+    a = pyfftw.empty_aligned(x.shape, dtype="float64")
+    b = pyfftw.empty_aligned(x.shape, dtype="float64")
+    plan = pyfftw.FFTW(a, b, direction="FFTW_REDFT00", flags=("FFTW_ESTIMATE",))
+    a[:] = x
+    plan()
+    return b.copy()
+
+
+def raised_cosine(f, f_cut, transition):
+    """The filter's transfer function H(f): 1 below f_cut (1 - transition),
+    0 above f_cut (1 + transition), a half cosine between (H(f_cut) = 1/2).
+    Real and even: zero phase."""
+    f = np.abs(np.asarray(f, dtype=float))
+    lo, hi = f_cut * (1 - transition), f_cut * (1 + transition)
+    h = np.where(f <= lo, 1.0, 0.0)
+    if hi > lo:
+        mid = (f > lo) & (f < hi)
+        h[mid] = 0.5 * (1 + np.cos(math.pi * (f[mid] - lo) / (hi - lo)))
+    return h
+
+
+def resample_uniform(t, y, dt=None):
+    """Linear interpolation of the samples (t, y) onto a uniform grid from
+    t[0] to t[-1]; NaN samples and repeated times are dropped first.  The
+    grid step is the median sampling interval unless dt is given (never
+    coarser: the step is adjusted down to fit a whole number of steps).
+    Returns (tu, yu)."""
+    t = np.asarray(t, dtype=float)
+    y = np.asarray(y, dtype=float)
+    ok = np.isfinite(t) & np.isfinite(y)
+    t, y = t[ok], y[ok]
+    order = np.argsort(t, kind="stable")
+    t, y = t[order], y[order]
+    keep = np.concatenate([[True], np.diff(t) > 0])
+    t, y = t[keep], y[keep]
+    if len(t) < 4:
+        raise PostprocError(f"a signal needs at least 4 valid samples to filter, got {len(t)}")
+    if dt is None:
+        dt = float(np.median(np.diff(t)))
+    m = int(math.ceil((t[-1] - t[0]) / dt - 1e-9)) + 1
+    tu = np.linspace(t[0], t[-1], max(m, 4))
+    return tu, np.interp(tu, t, y)
+
+
+def lowpass(t, y, f_cut, transition=0.3, dt=None):
+    """Zero-phase low-pass filter of a non-uniformly sampled signal.
+
+    1. resample onto a uniform grid (resample_uniform);
+    2. transform the even extension by FFTW's REDFT00 (dct1): the periodic
+       signal it represents has no jump at the ends (no wrap-around
+       artefact), only a kink where the slope is not zero there;
+    3. multiply by the real transfer function raised_cosine(f_k) at the
+       frequencies f_k = k / (2 (M-1) dt) (zero phase);
+    4. transform back and divide by 2(M-1).
+
+    f_cut is in cycles per unit time.  Returns (tu, y_uniform, y_filtered).
+    """
+    if not f_cut > 0:
+        raise PostprocError(f"the cut-off frequency must be positive, got {f_cut}")
+    if not 0 <= transition < 1:
+        raise PostprocError(f"the transition width must be in [0, 1), got {transition}")
+    tu, yu = resample_uniform(t, y, dt)
+    m = len(tu)
+    step = tu[1] - tu[0]
+    fk = np.arange(m) / (2 * (m - 1) * step)
+    yf = dct1(raised_cosine(fk, f_cut, transition) * dct1(yu)) / (2 * (m - 1))
+    return tu, yu, yf
+
+
+DEFAULT_ACOUSTIC_FRACTION = 0.5
+DEFAULT_TRANSITION = 0.3
+
+
+def cutoff(case, acoustic_fraction=None, flow_multiple=None):
+    """The cut-off frequency (cycles per unit time) and a sentence saying how
+    it was chosen: flow_multiple times the flow rate (A0, omega or V0/L) when
+    given, else acoustic_fraction (default 1/2) of the lowest acoustic
+    frequency."""
+    if flow_multiple is not None and acoustic_fraction is not None:
+        raise PostprocError("give the cut-off either relative to the acoustic frequency "
+                            "or to the flow rate, not both")
+    unit = case.time_label.replace("t ", "")
+    if flow_multiple is not None:
+        if not flow_multiple > 0:
+            raise PostprocError(f"--cutoff-flow must be positive, got {flow_multiple}")
+        fc = flow_multiple * case.rate
+        how = (f"{flow_multiple:g} {unit} = {fc / case.f_acoustic:.3f} x the lowest acoustic "
+               f"frequency {case.f_acoustic / case.rate:.4g} {unit}")
+    else:
+        frac = DEFAULT_ACOUSTIC_FRACTION if acoustic_fraction is None else acoustic_fraction
+        if not frac > 0:
+            raise PostprocError(f"--cutoff-acoustic must be positive, got {frac}")
+        fc = frac * case.f_acoustic
+        how = (f"{frac:g} x the lowest acoustic frequency {case.f_acoustic / case.rate:.4g} "
+               f"{unit} = {fc / case.rate:.4g} {unit}")
+    return fc, how
+
+
+def add_filter_options(parser):
+    """The filter's command-line options, shared by the scripts."""
+    g = parser.add_argument_group("pressure filter (doc/postproc.md)")
+    g.add_argument("--cutoff-acoustic", type=float, metavar="FRAC",
+                   help="cut-off as a fraction of the lowest acoustic frequency of the "
+                        f"patch (DESIGN.md X6); default {DEFAULT_ACOUSTIC_FRACTION}")
+    g.add_argument("--cutoff-flow", type=float, metavar="F",
+                   help="cut-off in units of the flow rate instead (A0, omega or V0/L: "
+                        "cycles per 1/A0 ...)")
+    g.add_argument("--transition", type=float, default=DEFAULT_TRANSITION, metavar="W",
+                   help="relative half-width of the raised-cosine transition: H = 1 below "
+                        "(1-W) f_cut, 0 above (1+W) f_cut; default %(default)s")
+
+
+def filter_from_args(case, args):
+    fc, how = cutoff(case, args.cutoff_acoustic, args.cutoff_flow)
+    return fc, args.transition, how
+
+
+# ---------------------------------------------------------------------------
+# Errors against the exact solution (stretching cases)
+# ---------------------------------------------------------------------------
+
+def time_mean(t, e):
+    """Time average of e over [t0, t1] (trapezoidal rule on the samples)."""
+    t = np.asarray(t, float)
+    e = np.asarray(e, float)
+    ok = np.isfinite(e)
+    t, e = t[ok], e[ok]
+    if len(t) < 2 or t[-1] <= t[0]:
+        return float(e[0]) if len(e) else float("nan")
+    return float(np.trapz(e, t) / (t[-1] - t[0]))
+
+
+def stretching_errors(run, f_cut, transition):
+    """The paper's errors of a circle2d / ellipsoid3d run, as fractions.
+
+    Returns a dict with
+      'series': {name: array over the time-series rows} of the signed errors
+          axis_k (fitted SPH semi-axis / same fit of the exact positions - 1),
+          axis_max (max_k |axis_k|, the solver's summary quantity),
+          pos, vel (RMS over particles / R, / (A0 R)), ke (KE / KE_exact - 1),
+          p_raw ((p_centre - P(t)) / P(0)), P (= P(t)/P(0));
+      'filtered': (tu, p_f, P_u, bias) on the uniform grid: the filtered
+          centre-pressure error (p_f - P)/P(0), P(t)/P(0) resampled, and the
+          same filter applied to the exact curve minus the exact curve (the
+          filter's own bias on the smooth signal);
+      'mean': time averages (trapezoidal, over [0, t_end]) of the absolute
+          errors; 'sample_mean': plain averages over rows, as the solver's
+          closing summary computes them; 'final': the last row's values;
+      'p0': P(0); 'probe': the probe column used.
+    """
+    c = run.case
+    if not c.stretching:
+        raise PostprocError(f"errors are defined for circle2d and ellipsoid3d, not {c.name}")
+    t = run.time
+    dim = c.dim
+    ser = {}
+    for k in range(1, dim + 1):
+        ser[f"axis_{k}"] = run.column(f"semi_axis_{k}_error")
+    ser["axis_max"] = np.max(np.abs([ser[f"axis_{k}"] for k in range(1, dim + 1)]), axis=0)
+    ser["pos"] = run.column("rms_position_error")
+    ser["vel"] = run.column("rms_velocity_error")
+    ser["ke"] = run.column("kinetic_energy") / run.column("kinetic_energy_exact") - 1
+    pex = run.column("p_centre_exact")
+    p0 = float(pex[0])
+    ser["P"] = pex / p0
+    probe = run.centre_probe()
+    out = {"series": ser, "p0": p0, "probe": probe, "time": t}
+    if probe is not None:
+        praw = run.ts[probe]
+        ser["p_raw"] = (praw - pex) / p0
+        tu, _, pf = lowpass(t, praw, f_cut, transition)
+        _, pu, pexf = lowpass(t, pex, f_cut, transition, dt=tu[1] - tu[0])
+        out["filtered"] = (tu, (pf - pu) / p0, pu / p0, (pexf - pu) / p0)
+    names = [f"axis_{k}" for k in range(1, dim + 1)] + ["axis_max", "pos", "vel", "ke"]
+    if probe is not None:
+        names.append("p_raw")
+    mean = {n: time_mean(t, np.abs(ser[n])) for n in names}
+    smean = {n: float(np.nanmean(np.abs(ser[n]))) for n in names}
+    final = {n: float(ser[n][-1]) for n in names}
+    if probe is not None:
+        tu, ef, _, bias = out["filtered"]
+        mean["p_filt"] = time_mean(tu, np.abs(ef))
+        smean["p_filt"] = float(np.mean(np.abs(ef)))
+        final["p_filt"] = float(ef[-1])
+        mean["p_filt_bias"] = time_mean(tu, np.abs(bias))
+        final["p_filt_bias"] = float(bias[-1])
+    out.update(mean=mean, sample_mean=smean, final=final, names=names)
+    return out
+
+
+def row_indices(run, times=None, count=None):
+    """Rows of the time series to tabulate: those at the snapshot times
+    (default), at the given times, or `count` evenly spread rows."""
+    t = run.time
+    if count is not None:
+        if count < 1:
+            raise PostprocError("--count must be at least 1")
+        want = np.linspace(t[0], t[-1], count)
+    elif times is not None:
+        want = np.asarray(times, float)
+    elif run.snapshots:
+        want = run.snapshot_times()
+    else:
+        step = float(run.nml.get("output", {}).get("dt", (t[-1] - t[0]) / 10 or 1.0))
+        want = np.append(np.arange(t[0], t[-1], step), t[-1])
+    idx = [int(np.argmin(np.abs(t - w))) for w in want]
+    return sorted(set(idx))
+
+
+# ---------------------------------------------------------------------------
+# Convergence
+# ---------------------------------------------------------------------------
+
+def observed_orders(h, e):
+    """Orders between successive resolutions log(e_i/e_{i+1})/log(h_i/h_{i+1})
+    and the least-squares slope of log e against log h."""
+    h = np.asarray(h, float)
+    e = np.abs(np.asarray(e, float))
+    pair = [float(np.log(e[i] / e[i + 1]) / np.log(h[i] / h[i + 1]))
+            if e[i] > 0 and e[i + 1] > 0 else float("nan") for i in range(len(h) - 1)]
+    ok = e > 0
+    lsq = float(np.polyfit(np.log(h[ok]), np.log(e[ok]), 1)[0]) if ok.sum() >= 2 else float("nan")
+    return pair, lsq
+
+
+def use_agg():
+    """matplotlib with the headless Agg backend."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt

@@ -1,0 +1,299 @@
+"""Post-processing (postproc/): the FFTW low-pass filter on synthetic signals,
+and the scripts errors, filter, convergence, plots and validate on tiny runs
+made here, their numbers checked against the solver's own time series."""
+import json
+import math
+import re
+import subprocess
+import sys
+
+import numpy as np
+
+from common import ROOT, SPH, run_sph, scratch, read_timeseries
+
+POSTPROC = ROOT / "postproc"
+sys.path.insert(0, str(POSTPROC))
+import sphpost as sp  # noqa: E402
+
+PY = "/usr/bin/python3"
+SCRIPTS = ["errors", "filter", "convergence", "plots", "validate"]
+_RUNS = {}
+
+
+def script(name, *args, check=True):
+    """Runs postproc/<name> as a user would (its shebang is /usr/bin/python3)."""
+    p = subprocess.run([str(POSTPROC / name)] + [str(a) for a in args],
+                       capture_output=True, text=True, timeout=300)
+    if check:
+        assert p.returncode == 0, \
+            f"postproc/{name} {args}: exit {p.returncode}\n{p.stdout}{p.stderr}"
+    return p
+
+
+def tiny_run(n=1250, t_end=0.5, case="circle2d"):
+    """A run shared by the tests below: circle2d with n particles to t_end,
+    snapshots every 0.25 (a few seconds at most)."""
+    key = (case, n, t_end)
+    if key not in _RUNS:
+        d = scratch(f"postproc_{case}_{n}") / "run"
+        p = run_sph([f"input/{case}.nml", f"particles.n={n}", f"run.t_end={t_end}",
+                     "output.dt=0.25", f"output.dir={d}"])
+        assert p.returncode == 0, p.out
+        _RUNS[key] = (d, p.out)
+    return _RUNS[key]
+
+
+# ---------------------------------------------------------------------------
+# The filter
+# ---------------------------------------------------------------------------
+
+def test_exact_solution_matches_design_table():
+    # DESIGN.md X1 (2D, alpha = (-A0, A0)) and X2 (3D, rates (-1, -1, 2)):
+    # the tables give 6 digits.
+    a, _, p = sp.exact_ellipse([0.5, 1.0, 2.0])
+    assert np.allclose(a[:, 0], [0.627053, 0.439461, 0.271814], atol=1e-6), a[:, 0]
+    assert np.allclose(p, [0.231943, 0.069327, 0.010799], atol=1e-6), p
+    a, _, p = sp.exact_ellipse([1.0], rates=(-1, -1, 2))
+    assert np.allclose(a[0], [0.54708, 0.54708, 3.34112], atol=1e-5), a
+    assert abs(p[0] - 0.05874) < 1e-5, p
+
+
+def test_filter_transfer_function_on_the_dct_grid():
+    # A cosine of the DCT grid, cos(pi k t/T) (frequency k/(2T)), is one
+    # coefficient of the transform: the filter multiplies it by H(k/(2T))
+    # exactly.  This pins the normalisation (1/(2(M-1))) and the frequency of
+    # each coefficient: a cosine in the pass band comes back to round-off,
+    # one in the stop band goes to round-off, one at the cut-off is halved.
+    T, m = 2.0, 801
+    t = np.linspace(0, T, m)
+    fc, w = 2.0, 0.3
+    for k, gain in ((0, 1.0), (3, 1.0), (5, 1.0), (8, 0.5), (11, 0.0), (40, 0.0)):
+        f = k / (2 * T)
+        assert math.isclose(sp.raised_cosine(f, fc, w), gain, abs_tol=1e-15), (k, f)
+        y = np.cos(math.pi * k * t / T)
+        _, yu, yf = sp.lowpass(t, y, fc, w)
+        assert np.max(np.abs(yu - y)) < 1e-14
+        assert np.max(np.abs(yf - gain * y)) < 1e-12, (k, np.max(np.abs(yf - gain * y)))
+
+
+def test_filter_recovers_smooth_curve_from_acoustic_noise():
+    # Synthetic probe signal like circle2d's at c0 = 10 A0 R (DESIGN.md 9):
+    # the exact centre pressure P(t) (P0 = 0.5) + an acoustic sine at the
+    # disc's lowest acoustic frequency f_a = 2.405 c0/(2 pi R) = 3.83 A0,
+    # amplitude A = 3 % of P0, + white noise sigma = 0.4 % of P0, sampled at
+    # non-uniform steps (0.004 (1 +- 0.5) / A0, like a run's varying dt).
+    # Default filter: f_cut = f_a/2, raised-cosine transition +-0.3.
+    #
+    # Error budget of the filtered signal y_f at a distance d >= 1.5/f_cut
+    # from both ends, against P_f = P filtered by the same H (the filter's
+    # distortion of the smooth curve, a property of P and H computed below
+    # with scipy's DCT on a 5x finer grid, independent of pyFFTW):
+    #  - noise: linear resampling at spacing <= dmax keeps white noise's
+    #    one-sided low-frequency PSD at <= 2 sigma^2 dmax; the filter passes
+    #    the bandwidth B = Int H^2 df = f_cut (1 - w/4): residual std
+    #    s_r <= sigma sqrt(2 B dmax); 5 s_r bounds it (Gaussian, fixed seed);
+    #  - acoustic sine: f_a lies in the stop band (>= 1.3 f_cut = 0.65 f_a), so
+    #    only the even extension's mirror images at the ends leak; they differ
+    #    from the continued sine by at most 2A, weighted by the impulse
+    #    response g's tail: <= 2 A Int_d^inf |g(tau)| dtau, with
+    #    g(tau) = 2 f_c sinc(2 f_c tau) cos(2 pi w f_c tau) / (1 - (4 w f_c tau)^2);
+    #  - linear interpolation: <= dmax^2/8 max|y''| before filtering, times
+    #    Int |g| after.
+    # Over the whole record (ends included) the same with d = 0, plus the
+    # largest distortion of P itself.
+    import scipy.fft
+    rng = np.random.default_rng(20240601)
+    T, c0 = 2.0, 10.0
+    fa = sp.J0_ZERO * c0 / (2 * math.pi)
+    fc, w = 0.5 * fa, 0.3
+    t = [0.0]
+    while t[-1] < T:
+        t.append(t[-1] + 0.004 * (1 + 0.4 * math.sin(3 * t[-1]) + 0.1 * rng.uniform(-1, 1)))
+    t = np.array(t)
+    t[-1] = T
+    dmax = float(np.max(np.diff(t)))
+    _, _, p = sp.exact_ellipse(t)
+    p0, amp, sigma = 0.5, 0.015, 0.002
+    y = p + amp * np.sin(2 * math.pi * fa * t + 0.7) + sigma * rng.standard_normal(len(t))
+    tu, yu, yf = sp.lowpass(t, y, fc, w)
+    _, _, pu = sp.exact_ellipse(tu)
+
+    # the smooth curve's distortion by H, independently
+    tf = np.linspace(0, T, 5 * len(tu))
+    _, _, pfine = sp.exact_ellipse(tf)
+    hk = sp.raised_cosine(np.arange(len(tf)) / (2 * T), fc, w)
+    dist = scipy.fft.dct(hk * scipy.fft.dct(pfine, type=1), type=1) / (2 * (len(tf) - 1)) - pfine
+    p_f = pu + np.interp(tu, tf, dist)
+
+    tau = np.linspace(0, 200 / fc, 400001)
+    x = 4 * w * fc * tau
+    with np.errstate(all="ignore"):
+        g = 2 * fc * np.sinc(2 * fc * tau) * np.cos(2 * math.pi * w * fc * tau) / (1 - x**2)
+    g[np.abs(1 - x**2) < 1e-9] = 2 * fc * np.sinc(2 * fc / (4 * w * fc)) * math.pi / 4
+    assert abs(2 * np.trapz(g, tau) - 1) < 1e-6          # unit gain at f = 0
+
+    def tail(d):
+        s = tau >= d
+        return np.trapz(np.abs(g[s]), tau[s])
+
+    s_r = sigma * math.sqrt(2 * fc * (1 - w / 4) * dmax)
+    interp = dmax**2 / 8 * (amp * (2 * math.pi * fa)**2 + 5.0) * 2 * tail(0)  # |P''| <= 5
+    d = 1.5 / fc
+    inner = (tu >= d) & (tu <= T - d)
+    tol_inner = 5 * s_r + 2 * amp * tail(d) + interp
+    err_inner = np.max(np.abs(yf - p_f)[inner])
+    assert err_inner < tol_inner, (err_inner / p0, tol_inner / p0)
+    tol_all = 5 * s_r + 2 * amp * tail(0) + interp + np.max(np.abs(dist))
+    err_all = np.max(np.abs(yf - pu))
+    assert err_all < tol_all, (err_all / p0, tol_all / p0)
+    # and the filter did its job: the raw signal is 10 times further off
+    assert np.max(np.abs(yu - pu)[inner]) > 10 * np.max(np.abs(yf - pu)[inner])
+
+
+# ---------------------------------------------------------------------------
+# The scripts on a tiny run, against the solver's own numbers
+# ---------------------------------------------------------------------------
+
+def test_errors_agree_with_the_solver():
+    d, out = tiny_run()
+    ts = read_timeseries(d / "timeseries.csv")
+    csv_path = d.parent / "errors.csv"
+    p = script("errors", d, "--check-snapshots", "--csv", csv_path)
+    # the table's rows are the time-series values at the snapshot times
+    # (0, 0.25, 0.5), in %; written with 10 significant digits
+    tab = np.genfromtxt(csv_path, delimiter=",", names=True)
+    assert np.allclose(tab["time"], [0.0, 0.25, 0.5], atol=1e-12), tab["time"]
+    t = np.array(ts["time"])
+    for i, tt in enumerate(tab["time"]):
+        row = int(np.argmin(np.abs(t - tt)))
+        for mine, col in (("axis_1", "semi_axis_1_error"), ("axis_2", "semi_axis_2_error"),
+                          ("pos", "rms_position_error"), ("vel", "rms_velocity_error")):
+            assert math.isclose(tab[mine][i], 100 * ts[col][row], rel_tol=1e-8, abs_tol=1e-12), \
+                (mine, tab[mine][i], 100 * ts[col][row])
+        ke = 100 * (ts["kinetic_energy"][row] / ts["kinetic_energy_exact"][row] - 1)
+        assert math.isclose(tab["KE"][i], ke, rel_tol=1e-8, abs_tol=1e-12)
+        praw = 100 * (ts["p_probe_1"][row] - ts["p_centre_exact"][row]) / ts["p_centre_exact"][0]
+        assert math.isclose(tab["p_raw"][i], praw, rel_tol=1e-8, abs_tol=1e-12)
+    # the sample means are the solver's closing summary (printed with 3
+    # decimals, in %)
+    m = re.search(r"\n\s+samples\s+(.*)", p.stdout)
+    vals = [float(v) for v in m.group(1).split()]
+    summ = sp.solver_summary(out)
+    # columns: axis 1, axis 2, max|axis|, pos, vel, KE, p raw, p filt
+    assert abs(vals[2] - summ["mean_axis"]) < 6e-4, (vals[2], summ)
+    assert abs(vals[3] - summ["mean_pos"]) < 6e-4, (vals[3], summ)
+    assert abs(vals[4] - summ["mean_vel"]) < 6e-4, (vals[4], summ)
+    assert abs(vals[6] - summ["mean_p_raw"]) < 6e-4, (vals[6], summ)
+    # the snapshot datasets give the same errors as the time series
+    m = re.search(r"pos (\S+), vel (\S+), KE (\S+)", p.stdout)
+    assert max(float(v) for v in m.groups()) < 1e-12, m.group(0)
+    # the time means (--json) are the trapezoidal means of the columns
+    js = json.loads(script("errors", d, "--json").stdout)
+    for key, col in (("pos", "rms_position_error"), ("vel", "rms_velocity_error")):
+        ref = np.trapz(np.abs(ts[col]), t) / (t[-1] - t[0])
+        assert math.isclose(js["mean"][key], ref, rel_tol=1e-12), (key, js["mean"][key], ref)
+    assert js["n"] == len(h5_ids(d)) and js["case"] == "circle2d"
+
+
+def h5_ids(d):
+    import h5py
+    with h5py.File(d / "snap_00000.h5", "r") as f:
+        return f["id"][:]
+
+
+def test_filter_script_writes_filtered_probe():
+    d, _ = tiny_run()
+    out = d.parent / "filtered.csv"
+    p = script("filter", d, "-o", out)
+    assert "spectral peak" in p.stdout and str(out) in p.stdout, p.stdout
+    f = np.genfromtxt(out, delimiter=",", names=True)
+    assert f.dtype.names == ("time", "p_probe_1", "p_probe_1_filtered", "p_centre_exact")
+    ts = read_timeseries(d / "timeseries.csv")
+    # uniform grid over the run, raw column = the probe interpolated onto it
+    dt = np.diff(f["time"])
+    assert np.max(np.abs(dt - dt[0])) < 1e-12 and f["time"][0] == 0.0
+    assert abs(f["time"][-1] - 0.5) < 1e-12
+    assert np.allclose(f["p_probe_1"], np.interp(f["time"], ts["time"], ts["p_probe_1"]),
+                       rtol=0, atol=1e-14)
+    # the filtered signal is smoother (second differences) than the raw one
+    assert np.std(np.diff(f["p_probe_1_filtered"], 2)) < 0.2 * np.std(np.diff(f["p_probe_1"], 2))
+
+
+def test_convergence_script_orders():
+    d1, _ = tiny_run(1250)
+    d2, _ = tiny_run(5000)
+    png = d2.parent / "conv.png"
+    js = d2.parent / "conv.json"
+    p = script("convergence", d2, d1, "-o", png, "--json", js)
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    res = json.load(open(js))
+    rows = res["rows"]
+    assert [r["n"] for r in rows][0] < rows[1]["n"]          # sorted by N
+    for r, d in zip(rows, (d1, d2)):
+        e = json.loads(script("errors", d, "--json").stdout)
+        assert math.isclose(r["errors"]["vel"], e["mean"]["vel"], rel_tol=1e-12)
+        assert math.isclose(r["dx"], math.sqrt(math.pi / e["n"]), rel_tol=1e-12)
+    for k, o in res["orders"].items():
+        e1, e2 = rows[0]["errors"][k], rows[1]["errors"][k]
+        ref = math.log(e1 / e2) / math.log(rows[0]["dx"] / rows[1]["dx"])
+        assert math.isclose(o["pairs"][0], ref, rel_tol=1e-12)
+        assert math.isclose(o["lsq"], ref, rel_tol=1e-9)
+    # printed: the velocity order between the two runs, 2 decimals
+    line = [ln for ln in p.stdout.splitlines() if "->" in ln][0]
+    assert f"{res['orders']['vel']['pairs'][0]:.2f}" in line
+
+
+def test_plots_circle_and_pressure():
+    d, _ = tiny_run()
+    for what, args in (("circle", [d]), ("pressure", [d, d])):
+        png = d.parent / f"{what}.png"
+        script("plots", what, *args, "-o", png, "--dpi", "50")
+        assert png.stat().st_size > 5000 and png.read_bytes()[:4] == b"\x89PNG", what
+
+
+def test_ellipsoid3d_errors_and_figure():
+    d, out = tiny_run(1000, 0.25, "ellipsoid3d")
+    ts = read_timeseries(d / "timeseries.csv")
+    js = json.loads(script("errors", d, "--json").stdout)
+    assert js["case"] == "ellipsoid3d"
+    assert math.isclose(js["final"]["axis_3"], ts["semi_axis_3_error"][-1], rel_tol=1e-12)
+    summ = sp.solver_summary(out)
+    assert abs(100 * js["sample_mean"]["vel"] - summ["mean_vel"]) < 6e-4
+    png = d.parent / "fig2.png"
+    script("plots", "ellipsoid", d, "-o", png, "--dpi", "40")
+    assert png.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_validate_quick_writes_report():
+    # the whole chain on the two smallest circle2d runs (a few seconds)
+    tmp = scratch("validate")
+    script("validate", "--quick", "--cases", "circle2d", "--runs", tmp / "runs",
+           "--doc", tmp / "doc", "--sph", SPH)
+    md = (tmp / "doc" / "validation.md").read_text()
+    assert "| 1,257 |" in md and "least squares" in md and "Beside the paper's claims" in md
+    for png in ("convergence", "fig1", "pressure_error", "spectrum"):
+        assert (tmp / "doc" / f"validation_circle2d_{png}.png").exists(), png
+
+
+def test_scripts_help_and_bad_run_directory():
+    empty = scratch("postproc_empty")
+    afile = empty / "file.txt"
+    afile.write_text("x")
+    for name in SCRIPTS:
+        p = script(name, "--help")
+        assert "usage" in p.stdout, name
+    cases = [("errors", [empty / "missing"], "does not exist"),
+             ("errors", [empty], "has no timeseries.csv"),
+             ("errors", [afile], "is not a directory"),
+             ("filter", [empty / "missing"], "does not exist"),
+             ("convergence", [empty, empty], "has no timeseries.csv"),
+             ("plots", ["circle", empty / "missing"], "does not exist")]
+    for name, args, msg in cases:
+        p = script(name, *args, check=False)
+        assert p.returncode == 2 and msg in p.stderr and p.stdout == "", (name, p.stdout, p.stderr)
+        assert "Traceback" not in p.stderr
+    # a run of the wrong case for a figure
+    d, _ = tiny_run()
+    p = script("plots", "ellipsoid", d, check=False)
+    assert p.returncode == 2 and "circle2d" in p.stderr, p.stderr
+
