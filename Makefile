@@ -99,6 +99,12 @@ test: sph $(BUILD)/unit_tests
 validate: sph
 	$(PYTHON) postproc/validate $(VALIDATE_ARGS)
 
+# Fixed-step benchmarks at 1 and 2 ranks (minutes; needs an idle machine):
+# seconds per step, right-hand sides and particle updates per second, peak
+# memory, imbalance, communication share; table in runs/bench/bench.md.
+bench: sph
+	$(PYTHON) tests/bench/run_bench.py $(BENCH_ARGS)
+
 debug:
 	$(MAKE) BUILD=build/debug \
 	  OPTFLAGS="-O0 -g -fcheck=all -ffpe-trap=invalid,zero,overflow -fbacktrace -finit-real=snan"

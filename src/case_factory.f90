@@ -2,6 +2,7 @@
 module case_factory
   use case_base, only: case_t
   use case_stretching, only: stretching_t
+  use case_square, only: square_patch_t
   implicit none
   private
   public :: make_case
@@ -15,6 +16,8 @@ contains
     select case (name)
     case ('circle2d', 'ellipsoid3d')
       allocate(stretching_t :: c)
+    case ('square_rotation', 'square_vortical')
+      allocate(square_patch_t :: c)
     case default
       error stop 'make_case: unknown case (config should have rejected it)'
     end select

@@ -17,7 +17,8 @@ module config
   implicit none
   private
   public :: config_t, run_params_t, particles_params_t, physics_params_t, &
-            numerics_params_t, output_params_t, circle2d_params_t, ellipsoid3d_params_t
+            numerics_params_t, output_params_t, circle2d_params_t, ellipsoid3d_params_t, &
+            square_rotation_params_t, square_vortical_params_t
   public :: config_load, config_write_defaults, config_echo, config_write_help, config_dim
   public :: case_t, CASES, NAME_LEN, DIR_LEN_MAX, MAX_PROBES
 
@@ -34,7 +35,9 @@ module config
 
   !> The cases.  To add one: a row here, its group (G_*, GROUPS, its params
   !> type, a read_* routine, rows in VARS) and its branch in case_speed.
-  type(case_t), parameter :: CASES(*) = [case_t('circle2d', 2), case_t('ellipsoid3d', 3)]
+  type(case_t), parameter :: CASES(*) = [case_t('circle2d', 2), case_t('ellipsoid3d', 3), &
+                                         case_t('square_rotation', 2), &
+                                         case_t('square_vortical', 2)]
 
   ! The allowed words of the word-valued variables.
   character(len=NAME_LEN), parameter :: PLACEMENTS(*) = &
@@ -85,6 +88,9 @@ module config
     character(len=NAME_LEN) :: diffusion = 'molteni'
     real(wp) :: delta = 0.1_wp
     real(wp) :: skin = 0.3_wp                            !< in units of h
+    logical :: tensile = .false.                         !< (E7) tensile instability control
+    real(wp) :: tensile_eps = 0.4_wp                     !< measured best with wendland_c2, h = 2 dx
+    integer :: tensile_n = 4
   end type numerics_params_t
 
   !> &output: where and what to write.
@@ -112,6 +118,18 @@ module config
     real(wp) :: rates(3) = [-1.0_wp, -1.0_wp, 2.0_wp]   !< in units of a0
   end type ellipsoid3d_params_t
 
+  !> &square_rotation: the rotating square patch (2D).
+  type :: square_rotation_params_t
+    real(wp) :: side = 1.0_wp
+    real(wp) :: omega = 1.0_wp
+  end type square_rotation_params_t
+
+  !> &square_vortical: the vortical square patch (2D).
+  type :: square_vortical_params_t
+    real(wp) :: side = 1.0_wp
+    real(wp) :: v0 = 1.0_wp
+  end type square_vortical_params_t
+
   !> The whole configuration; every component has its default.
   type :: config_t
     type(run_params_t) :: run
@@ -121,16 +139,19 @@ module config
     type(output_params_t) :: output
     type(circle2d_params_t) :: circle2d
     type(ellipsoid3d_params_t) :: ellipsoid3d
+    type(square_rotation_params_t) :: square_rotation
+    type(square_vortical_params_t) :: square_vortical
   end type config_t
 
   !> A namelist group: its name and a line saying what it is for.
   type :: group_t
-    character(len=12) :: name
+    character(len=16) :: name
     character(len=100) :: help
   end type group_t
 
   integer, parameter :: G_RUN = 1, G_PARTICLES = 2, G_PHYSICS = 3, G_NUMERICS = 4, &
-                        G_OUTPUT = 5, G_CIRCLE2D = 6, G_ELLIPSOID3D = 7
+                        G_OUTPUT = 5, G_CIRCLE2D = 6, G_ELLIPSOID3D = 7, &
+                        G_SQUARE_ROTATION = 8, G_SQUARE_VORTICAL = 9
   type(group_t), parameter :: GROUPS(*) = [ &
     group_t('run', 'what to run and for how long'), &
     group_t('particles', 'the initial particle layout'), &
@@ -138,7 +159,11 @@ module config
     group_t('numerics', 'SPH discretisation and time stepping'), &
     group_t('output', 'run directory, snapshots, time series and pressure probes'), &
     group_t('circle2d', 'the stretching circular patch (2D), used when run.case = ''circle2d'''), &
-    group_t('ellipsoid3d', 'the stretching sphere (3D), used when run.case = ''ellipsoid3d''')]
+    group_t('ellipsoid3d', 'the stretching sphere (3D), used when run.case = ''ellipsoid3d'''), &
+    group_t('square_rotation', &
+            'the rotating square patch (2D), used when run.case = ''square_rotation'''), &
+    group_t('square_vortical', &
+            'the vortical square patch (2D), used when run.case = ''square_vortical''')]
 
   ! Variable types, bound rules and lists of allowed words for the table VARS.
   integer, parameter :: T_INT = 1, T_REAL = 2, T_STRING = 3, T_LOGICAL = 4
@@ -211,6 +236,13 @@ module config
           'density diffusion coefficient'), &
     var_t(G_NUMERICS, 'skin', T_REAL, SCALAR, LO_GE, HI_LE, 0.0_wp, 2.0_wp, CH_NONE, '', &
           'smallest neighbour-list skin in units of h (widened when a step needs more)'), &
+    var_t(G_NUMERICS, 'tensile', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
+          CH_NONE, '', 'tensile instability control (Monaghan 2000): a repulsion ' // &
+          'between particles under negative pressure'), &
+    var_t(G_NUMERICS, 'tensile_eps', T_REAL, SCALAR, LO_GT, HI_LE, 0.0_wp, 1.0_wp, CH_NONE, &
+          '', 'tensile control strength: R_i = tensile_eps |p_i|/rho_i^2 where p_i < 0'), &
+    var_t(G_NUMERICS, 'tensile_n', T_INT, SCALAR, LO_GE, HI_LE, 1.0_wp, 8.0_wp, CH_NONE, &
+          '', 'tensile control exponent n of (W_ij/W(dx))^n'), &
     var_t(G_OUTPUT, 'dir', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
           'a non-empty path of at most 255 characters', 'run directory'), &
     var_t(G_OUTPUT, 'dt', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
@@ -234,7 +266,15 @@ module config
           'A0: the unit of the rates'), &
     var_t(G_ELLIPSOID3D, 'rates', T_REAL, [3, 0], LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
           'summing to zero within 1e-12, not all zero', &
-          'initial velocity u_k = rates(k) A0 x_k (rates in units of A0)')]
+          'initial velocity u_k = rates(k) A0 x_k (rates in units of A0)'), &
+    var_t(G_SQUARE_ROTATION, 'side', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, &
+          CH_NONE, '', 'side L of the initial square, centred at the origin'), &
+    var_t(G_SQUARE_ROTATION, 'omega', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, &
+          CH_NONE, '', 'omega: initial rigid rotation u = omega y, v = -omega x'), &
+    var_t(G_SQUARE_VORTICAL, 'side', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, &
+          CH_NONE, '', 'side L of the initial square, centred at the origin'), &
+    var_t(G_SQUARE_VORTICAL, 'v0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
+          '', 'V0: initial u = V0 (f(y) - e^-4), v = -V0 (f(x) - e^-4), f(s) = exp(-(4s/L)^2)')]
 
   real(wp), parameter :: RATES_SUM_TOL = 1.0e-12_wp   !< incompressibility of the rates
   real(wp), parameter :: MACH_FACTOR = 3.0_wp          !< c0 >= MACH_FACTOR * max initial speed
@@ -845,6 +885,10 @@ contains
       call read_circle2d(text, c%circle2d, ios, iomsg)
     case (G_ELLIPSOID3D)
       call read_ellipsoid3d(text, c%ellipsoid3d, ios, iomsg)
+    case (G_SQUARE_ROTATION)
+      call read_square_rotation(text, c%square_rotation, ios, iomsg)
+    case (G_SQUARE_VORTICAL)
+      call read_square_vortical(text, c%square_vortical, ios, iomsg)
     case default
       ios = 1
     end select
@@ -920,9 +964,11 @@ contains
     integer, intent(out) :: ios
     character(len=*), intent(inout) :: iomsg
     character(len=NAME_LEN) :: kernel, integrator, viscosity, diffusion
-    real(wp) :: cfl, cfl_force, cfl_visc, alpha, delta, skin
+    real(wp) :: cfl, cfl_force, cfl_visc, alpha, delta, skin, tensile_eps
+    logical :: tensile
+    integer :: tensile_n
     namelist /numerics/ kernel, integrator, cfl, cfl_force, cfl_visc, viscosity, alpha, &
-                        diffusion, delta, skin
+                        diffusion, delta, skin, tensile, tensile_eps, tensile_n
     kernel = p%kernel
     integrator = p%integrator
     cfl = p%cfl
@@ -933,6 +979,9 @@ contains
     diffusion = p%diffusion
     delta = p%delta
     skin = p%skin
+    tensile = p%tensile
+    tensile_eps = p%tensile_eps
+    tensile_n = p%tensile_n
     read(text, nml=numerics, iostat=ios, iomsg=iomsg)
     if (ios /= 0) return
     p%kernel = kernel
@@ -945,6 +994,9 @@ contains
     p%diffusion = diffusion
     p%delta = delta
     p%skin = skin
+    p%tensile = tensile
+    p%tensile_eps = tensile_eps
+    p%tensile_n = tensile_n
   end subroutine read_numerics
 
   subroutine read_output(text, p, ios, iomsg)
@@ -1006,6 +1058,36 @@ contains
     p%a0 = a0
     p%rates = rates
   end subroutine read_ellipsoid3d
+
+  subroutine read_square_rotation(text, p, ios, iomsg)
+    character(len=*), intent(in) :: text
+    type(square_rotation_params_t), intent(inout) :: p
+    integer, intent(out) :: ios
+    character(len=*), intent(inout) :: iomsg
+    real(wp) :: side, omega
+    namelist /square_rotation/ side, omega
+    side = p%side
+    omega = p%omega
+    read(text, nml=square_rotation, iostat=ios, iomsg=iomsg)
+    if (ios /= 0) return
+    p%side = side
+    p%omega = omega
+  end subroutine read_square_rotation
+
+  subroutine read_square_vortical(text, p, ios, iomsg)
+    character(len=*), intent(in) :: text
+    type(square_vortical_params_t), intent(inout) :: p
+    integer, intent(out) :: ios
+    character(len=*), intent(inout) :: iomsg
+    real(wp) :: side, v0
+    namelist /square_vortical/ side, v0
+    side = p%side
+    v0 = p%v0
+    read(text, nml=square_vortical, iostat=ios, iomsg=iomsg)
+    if (ios /= 0) return
+    p%side = side
+    p%v0 = v0
+  end subroutine read_square_vortical
 
   ! ------------------------------------------------------------------------
   ! Checks
@@ -1142,6 +1224,12 @@ contains
     case ('ellipsoid3d')   ! u_k = rates(k) A0 x_k: max|rates| A0 R on the sphere
       speed = maxval(abs(c%ellipsoid3d%rates)) * c%ellipsoid3d%a0 * c%ellipsoid3d%radius
       formula = '&ellipsoid3d max|rates| a0 radius'
+    case ('square_rotation')   ! u = omega (y, -x): omega L/sqrt(2) at the corners
+      speed = c%square_rotation%omega * c%square_rotation%side / sqrt(2.0_wp)
+      formula = '&square_rotation omega side/sqrt(2)'
+    case ('square_vortical')   ! |u| = sqrt(2) V0 (1 - e^-4) at the centre
+      speed = sqrt(2.0_wp) * c%square_vortical%v0 * (1 - exp(-4.0_wp))
+      formula = '&square_vortical sqrt(2) (1 - e^-4) v0'
     case default
       speed = 0
       formula = '0'
@@ -1265,6 +1353,13 @@ contains
       x = c%numerics%delta
     case ('numerics.skin')
       x = c%numerics%skin
+    case ('numerics.tensile')
+      text = merge('.true. ', '.false.', c%numerics%tensile)
+      text = trim(text)
+    case ('numerics.tensile_eps')
+      x = c%numerics%tensile_eps
+    case ('numerics.tensile_n')
+      x = real(c%numerics%tensile_n, wp)
     case ('output.dir')
       text = quoted(c%output%dir)
     case ('output.dt')
@@ -1286,6 +1381,14 @@ contains
       x = c%ellipsoid3d%a0
     case ('ellipsoid3d.rates')
       text = real_list(c%ellipsoid3d%rates)
+    case ('square_rotation.side')
+      x = c%square_rotation%side
+    case ('square_rotation.omega')
+      x = c%square_rotation%omega
+    case ('square_vortical.side')
+      x = c%square_vortical%side
+    case ('square_vortical.v0')
+      x = c%square_vortical%v0
     end select
     if (v%dims(1) == 0) then
       if (v%type == T_INT) text = int_str(nint(x))

@@ -10,7 +10,7 @@
 !> ignored (their owners compute them).
 module fluid_rhs
   use kinds, only: wp, i8
-  use kernels, only: kernel_t, kernel_f_list
+  use kernels, only: kernel_t, kernel_f_list, kernel_w, kernel_w_list
   use neighbours, only: neighbour_list_t
   implicit none
   private
@@ -30,6 +30,11 @@ module fluid_rhs
     real(wp) :: alpha = 0.01_wp
     integer :: diffusion = DIFF_MOLTENI
     real(wp) :: delta = 0.1_wp
+    !> (E7) tensile instability control, on when tensile_eps > 0; tensile_dx
+    !> is the particle spacing of W(dx) and must then be set.
+    real(wp) :: tensile_eps = 0
+    integer :: tensile_n = 4
+    real(wp) :: tensile_dx = 0
   end type rhs_params_t
 
 contains
@@ -196,6 +201,9 @@ contains
   !>  (E4) D u_i/Dt = -(1/rho_i) Sum_j (p_i + p_j) g V_j + visc_i
   !>  (E5) visc_i = alpha h c0 (rho0/rho_i) Sum_j pi_ij g V_j,
   !>       pi_ij = u_ji . (x_j - x_i)/r^2;  or Monaghan's Pi_ij.
+  !>  (E7) tens_i = -Sum_j m_j (R_i + R_j) (W_ij/W(dx))^n g, R_i = eps |p_i|/rho_i^2
+  !>       where p_i < 0, else 0 (Monaghan 2000): a repulsion between
+  !>       particles under tension, antisymmetric like the pressure term.
   !> grad_rho (G) is used only with the Antuono diffusion and must then hold
   !> valid values for halo copies too.
   subroutine rhs_evaluate(prm, n, ntot, x, u, rho, m, p, grad_rho, nl, drho, du)
@@ -208,10 +216,11 @@ contains
     real(wp) :: xij(3), uji(3), g(3), r2, f, s2, h, eta2
     real(wp) :: div, dterm, a, coef_visc, diff_coef, xu, vi, vj, iri, irj
     real(wp) :: drho_i, du_i(3), rhoi, pi_
-    real(wp), allocatable :: vol(:), inv_rho(:), xl(:, :), r2l(:), fl(:)
+    real(wp), allocatable :: vol(:), inv_rho(:), xl(:, :), r2l(:), fl(:), rt(:), wl(:)
+    real(wp) :: inv_wdx
     integer, allocatable :: jl(:)
     integer :: i, j, l, nn, kk
-    logical :: antuono
+    logical :: antuono, tensile
     h = prm%kernel%h
     s2 = prm%kernel%support**2
     eta2 = 0.01_wp * h**2
@@ -225,12 +234,22 @@ contains
     inv_rho = 1 / rho(1:ntot)
     vol = m(1:ntot) * inv_rho
     call pair_buffers(nl, jl, xl, r2l, fl)
+    ! (E7): R_i per particle, 1/W(dx), and W for each row
+    tensile = prm%tensile_eps > 0
+    inv_wdx = 0
+    if (tensile) then
+      if (.not. prm%tensile_dx > 0) error stop 'rhs_evaluate: tensile control needs tensile_dx'
+      allocate(rt(ntot), wl(size(r2l)))
+      rt = prm%tensile_eps * max(0.0_wp, -p(1:ntot)) * inv_rho**2
+      inv_wdx = 1 / kernel_w(prm%kernel, prm%tensile_dx)
+    end if
     drho = 0
     du = 0
     do kk = 1, nl%n_rows
       i = nl%row(kk)
       call in_range_pairs(kk, i, x, s2, nl, nn, jl, xl, r2l)
       call kernel_f_list(prm%kernel, nn, r2l, fl)
+      if (tensile) call kernel_w_list(prm%kernel, nn, r2l, wl)
       rhoi = rho(i)
       iri = inv_rho(i)
       vi = vol(i)
@@ -268,6 +287,8 @@ contains
           if (xu < 0) a = a + prm%alpha * prm%c0 * h * xu / (r2 + eta2) &
                           / (0.5_wp * (rhoi + rho(j))) * rhoi * rho(j)
         end select
+        ! (E7): -m_j (R_i + R_j) f^n g = A V_j/rho_i g with A = -rho_i rho_j (R_i + R_j) f^n
+        if (tensile) a = a - rhoi * rho(j) * (rt(i) + rt(j)) * (wl(l) * inv_wdx)**prm%tensile_n
         du_i = du_i + (a * vj * iri) * g
         du(:, j) = du(:, j) - (a * vi * irj) * g
       end do

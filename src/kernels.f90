@@ -6,7 +6,7 @@ module kernels
   use kinds, only: wp, pi
   implicit none
   private
-  public :: kernel_t, kernel_init, kernel_w, kernel_f, kernel_f_list
+  public :: kernel_t, kernel_init, kernel_w, kernel_f, kernel_f_list, kernel_w_list
   public :: KERNEL_WENDLAND_C2, KERNEL_CUBIC_SPLINE, KERNEL_GAUSSIAN
 
   integer, parameter :: KERNEL_WENDLAND_C2 = 1   !< (K1)
@@ -147,5 +147,38 @@ contains
       end do
     end select
   end subroutine kernel_f_list
+
+  !> W for a list of squared distances r2(1:n), all inside the support (the
+  !> companion of kernel_f_list, for terms that need the kernel value, such
+  !> as the tensile instability control E7).
+  pure subroutine kernel_w_list(k, n, r2, w)
+    type(kernel_t), intent(in) :: k
+    integer, intent(in) :: n
+    real(wp), intent(in) :: r2(n)
+    real(wp), intent(out) :: w(n)
+    real(wp) :: q, s
+    integer :: l
+    select case (k%kind)
+    case (KERNEL_WENDLAND_C2)
+      do l = 1, n
+        q = sqrt(r2(l)) * k%inv_h
+        s = 1.0_wp - 0.5_wp * q
+        w(l) = k%norm * s**4 * (2.0_wp * q + 1.0_wp)
+      end do
+    case (KERNEL_CUBIC_SPLINE)
+      do l = 1, n
+        q = sqrt(r2(l)) * k%inv_h
+        if (q < 1.0_wp) then
+          w(l) = k%norm * (1.0_wp - 1.5_wp * q**2 + 0.75_wp * q**3)
+        else
+          w(l) = k%norm * 0.25_wp * (2.0_wp - q)**3
+        end if
+      end do
+    case (KERNEL_GAUSSIAN)
+      do l = 1, n
+        w(l) = k%norm * (exp(-r2(l) * k%inv_h2) - k%w_cut)
+      end do
+    end select
+  end subroutine kernel_w_list
 
 end module kernels

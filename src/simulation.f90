@@ -5,6 +5,7 @@ module simulation
   use, intrinsic :: iso_fortran_env, only: output_unit, error_unit
   use kinds, only: wp, i8
   use particles, only: particles_t
+  use memory_usage, only: peak_memory_mb
   use config, only: config_t, config_dim, config_echo
   use kernels, only: kernel_init, KERNEL_WENDLAND_C2, KERNEL_CUBIC_SPLINE, KERNEL_GAUSSIAN
   use eos, only: eos_init, EOS_LINEAR, EOS_TAIT
@@ -168,6 +169,9 @@ contains
     s%rhs%rho0 = cfg%physics%rho0
     s%rhs%alpha = cfg%numerics%alpha
     s%rhs%delta = cfg%numerics%delta
+    s%rhs%tensile_eps = merge(cfg%numerics%tensile_eps, 0.0_wp, cfg%numerics%tensile)
+    s%rhs%tensile_n = cfg%numerics%tensile_n
+    s%rhs%tensile_dx = dx
     select case (cfg%numerics%viscosity)
     case ('none')
       s%rhs%viscosity = VISC_NONE
@@ -280,14 +284,17 @@ contains
       call run%problem%fields(t, s%parts, f)
       nv = size(f%vector_names)
       ns = size(f%scalar_names)
-      allocate(extra(nv + ns))
+      ! every case: the initial positions (Lagrangian labels), for restarts
+      allocate(extra(nv + ns + 1))
+      extra(1)%name = 'position_initial'
+      extra(1)%v = s%parts%x0(:, 1:n)
       do k = 1, nv
-        extra(k)%name = trim(f%vector_names(k))
-        extra(k)%v = f%vectors(:, :, k)
+        extra(1 + k)%name = trim(f%vector_names(k))
+        extra(1 + k)%v = f%vectors(:, :, k)
       end do
       do k = 1, ns
-        extra(nv + k)%name = trim(f%scalar_names(k))
-        extra(nv + k)%s = f%scalars(:, k)
+        extra(1 + nv + k)%name = trim(f%scalar_names(k))
+        extra(1 + nv + k)%s = f%scalars(:, k)
       end do
       call snapshot_write(env%comm, join_path(run%dir, snapshot_filename(run%n_snapshots)), &
                           t, step, s%parts%dim, trim(cfg%run%case_name), n, s%parts%id, &
@@ -349,7 +356,7 @@ contains
     write(output_unit, '(a,i0,a,i0,a,es10.3,a,es10.3,a,f5.2,a)') '  particles ', run%n_global, &
       '  dim ', s%parts%dim, '  dx ', dx, '  h ', s%rhs%kernel%h, '  (h/dx ', &
       cfg%particles%h_over_dx, ')'
-    write(output_unit, '(a,f8.2,a,f6.4,a,f6.3,a)') '  c0 ', s%rhs%c0, '  Mach ', &
+    write(output_unit, '(a,f8.2,a,f6.4,a,f8.1,a)') '  c0 ', s%rhs%c0, '  Mach ', &
       s%umax / s%rhs%c0, '  pairs per particle within list radius ', &
       2 * pairs / run%n_global, ''
     write(output_unit, '(a)') '  kernel ' // trim(cfg%numerics%kernel) // ', integrator ' // &
@@ -386,15 +393,21 @@ contains
     type(run_t), intent(in) :: run
     integer, intent(in) :: steps
     real(wp), intent(in) :: wall
-    real(wp) :: comm
+    real(wp) :: comm, mem_max, mem_total
     comm = par_max(env, s%comm_time)
+    mem_max = par_max(env, peak_memory_mb())
+    mem_total = par_sum(env, peak_memory_mb())
     if (env%rank /= 0) return
     write(output_unit, '(a,i0,a,f10.2,a,es10.3,a,es10.3,a,i0,a)') 'done: ', steps, ' steps in ', &
       wall, ' s, ', wall / max(steps, 1), ' s/step, ', &
       real(run%n_global, wp) * steps / max(wall, 1e-9_wp), ' particle-steps/s on ', &
       env%nranks, ' rank(s)'
-    write(output_unit, '(a,i0,a,i0,a,i0)') '  right-hand sides ', s%n_evaluations, &
-      ', list rebuilds ', s%n_rebuilds, ', snapshots ', run%n_snapshots
+    write(output_unit, '(a,i0,a,i0,a,i0,a,f8.1,a,f6.1,a,f9.1,a,f9.1,a)') &
+      '  right-hand sides ', s%n_evaluations, ', list rebuilds ', s%n_rebuilds, &
+      ', snapshots ', run%n_snapshots, ', pairs per particle ', &
+      real(s%nl%n_pairs, wp) * 2 / max(s%parts%n, 1), ' (skin ', s%skin / s%rhs%kernel%h, &
+      ' h), peak memory ', mem_max, ' MB per rank (max), ', mem_total, ' MB in all'
+
     if (env%nranks > 1) write(output_unit, '(a,f6.3,a,f6.3,a,i0,a,i0,a,f5.1,a)') &
       '  imbalance (max/mean particles) mean ', run%imb_sum / max(run%imb_n, 1), ', max ', &
       run%imb_max, ', re-balanced ', s%n_balances, ' times, ', s%n_migrated, &

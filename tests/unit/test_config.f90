@@ -80,8 +80,8 @@ contains
       if (index(line, '! ') > 0 .and. index(line, '(allowed: ') > 0) ncommented = ncommented + 1
     end do
     close(u, status='delete')
-    ! 32 variables, probes written once (probe 1, as n_probes = 1)
-    call assert_equal(32, nvars, 'variable lines in the defaults file')
+    ! 39 variables, probes written once (probe 1, as n_probes = 1)
+    call assert_equal(39, nvars, 'variable lines in the defaults file')
     call assert_equal(nvars, ncommented, 'variable lines with a comment saying what is allowed')
   end subroutine defaults_round_trip
 
@@ -114,6 +114,9 @@ contains
     c%numerics%diffusion = 'antuono'
     c%numerics%delta = 1.0_wp
     c%numerics%skin = 2.0_wp
+    c%numerics%tensile = .true.
+    c%numerics%tensile_eps = 0.15_wp
+    c%numerics%tensile_n = 3
     c%output%dir = 'runs/it''s!a test'
     c%output%dt = 1.0e-5_wp
     c%output%probe_every = 3
@@ -127,6 +130,10 @@ contains
     c%ellipsoid3d%radius = 0.7_wp
     c%ellipsoid3d%a0 = 1.3_wp
     c%ellipsoid3d%rates = [0.5_wp, 1.5_wp, -2.0_wp]
+    c%square_rotation%side = 2.0_wp / 3
+    c%square_rotation%omega = 0.25_wp
+    c%square_vortical%side = 1.0e-3_wp
+    c%square_vortical%v0 = 0.1_wp
 
     path = scratch // '/echo.nml'
     call echo_to(c, path)
@@ -245,6 +252,27 @@ contains
     call assert_equal(0.1_wp, c%output%dt, 0.0_wp, 'ellipsoid3d output.dt')
     call assert_equal([-1.0_wp, -1.0_wp, 2.0_wp], c%ellipsoid3d%rates, 0.0_wp, &
                       'ellipsoid3d rates')
+
+    ! the paper's c0 = 7 omega L (f0 = c0/(sqrt(2) L) = 4.95 omega), t omega = 4
+    call config_load('input/square_rotation.nml', [character(len=1) ::], c, ok, msg)
+    call assert_true(ok, 'input/square_rotation.nml: ' // msg)
+    call assert_equal('square_rotation', trim(c%run%case_name), 'square_rotation case')
+    call assert_equal(2, config_dim(c), 'square_rotation is 2D')
+    call assert_equal(7.0_wp, c%physics%c0 / (c%square_rotation%omega * c%square_rotation%side), &
+                      1e-12_wp, 'square_rotation c0 = 7 omega L')
+    call assert_true(c%run%t_end * c%square_rotation%omega >= 4, 'square_rotation t omega >= 4')
+    call assert_true(c%numerics%tensile, 'square_rotation uses the tensile control')
+    call assert_true(c%output%n_probes >= 1 .and. all(abs(c%output%probes(:, 1)) <= 0), &
+                     'square_rotation probe 1 at the centre A')
+
+    ! t V0/L = 1.5, snapshots at 0.4 and 1.5 (the paper's Figure 5)
+    call config_load('input/square_vortical.nml', [character(len=1) ::], c, ok, msg)
+    call assert_true(ok, 'input/square_vortical.nml: ' // msg)
+    call assert_equal('square_vortical', trim(c%run%case_name), 'square_vortical case')
+    call assert_true(c%run%t_end * c%square_vortical%v0 / c%square_vortical%side >= 1.5_wp, &
+                     'square_vortical t V0/L >= 1.5')
+    call assert_equal(0.0_wp, modulo(0.4_wp / c%output%dt + 0.5_wp, 1.0_wp) - 0.5_wp, 1e-9_wp, &
+                      'square_vortical: a snapshot at t V0/L = 0.4')
   end subroutine shipped_inputs_load
 
   !> Each bad input fails with one line naming where (file or command line),
@@ -306,7 +334,21 @@ contains
     call expect_error(F, '&physics eos = ''tate'' /', NONE, [character(len=80) :: &
       "&physics eos = 'tate' is not allowed", "choose one of 'linear', 'tait'"])
     call expect_error(CL, '', [character(len=40) :: 'run.case=square'], [character(len=80) :: &
-      "&run case = 'square' is not allowed", "choose one of 'circle2d', 'ellipsoid3d'"])
+      "&run case = 'square' is not allowed", "choose one of 'circle2d', 'ellipsoid3d', " // &
+      "'square_rotation', 'square_vortical'"])
+    call expect_error(F, '&numerics tensile_eps = 0 /', NONE, [character(len=80) :: &
+      '&numerics tensile_eps = 0.0 is out of range', 'allowed 0 < tensile_eps <= 1'])
+    call expect_error(CL, '', [character(len=40) :: 'numerics.tensile_n=0'], &
+      [character(len=80) :: '&numerics tensile_n = 0 is out of range', &
+      'allowed 1 <= tensile_n <= 8'])
+    call expect_error(F, '&numerics tensile = 1 /', NONE, [character(len=80) :: &
+      '&numerics tensile = 1 cannot be read as a logical', '.true. or .false.'])
+    call expect_error(F, '&square_rotation side = -1 /', NONE, [character(len=80) :: &
+      '&square_rotation side = -1.0 is out of range', 'allowed side > 0'])
+    call expect_error(F, '&square_vortical v0 = 0 /', NONE, [character(len=80) :: &
+      '&square_vortical v0 = 0.0 is out of range', 'allowed v0 > 0'])
+    call expect_error(F, '&square_rotaton omega = 2 /', NONE, [character(len=80) :: &
+      'unknown namelist group &square_rotaton', 'did you mean &square_rotation?'])
     ! consistency between values
     call expect_error(F, '&run case = ''ellipsoid3d'' /|&ellipsoid3d rates = -1.0, -1.0, 1.0 /', &
       NONE, [character(len=80) :: &
@@ -318,6 +360,14 @@ contains
     call expect_error(F, '&physics c0 = 5.0 /', [character(len=40) :: 'run.case=ellipsoid3d'], &
       [character(len=80) :: "&physics c0 = 5.0 is too small for case 'ellipsoid3d'", &
       'allowed c0 >= 3 max|u0| = 6.0'])
+    ! omega L/sqrt(2) = 2 sqrt(2) at the corners: c0 >= 6 sqrt(2) = 8.485...
+    call expect_error(CL, '&run case = ''square_rotation'' /|&square_rotation omega = 4 /', &
+      [character(len=40) :: 'physics.c0=8'], [character(len=80) :: &
+      "&physics c0 = 8.0 is too small for case 'square_rotation'", &
+      'allowed c0 >= 3 max|u0| = 8.48528137423857', '&square_rotation omega side/sqrt(2)'])
+    call expect_error(F, '&run case = ''square_vortical'' /|&physics c0 = 4 /', NONE, &
+      [character(len=80) :: "&physics c0 = 4.0 is too small for case 'square_vortical' (line 2)", &
+      'allowed c0 >= 3 max|u0| = 4.16', 'sqrt(2) (1 - e^-4) v0'])
     call expect_error(CL, '', [character(len=40) :: 'output.dir='''''], [character(len=80) :: &
       "&output dir = '' is empty"])
     long = 'output.dir=' // repeat('a', 300)
@@ -478,6 +528,18 @@ contains
                       l // 'ellipsoid3d.radius')
     call assert_equal(e%ellipsoid3d%a0, a%ellipsoid3d%a0, 0.0_wp, l // 'ellipsoid3d.a0')
     call assert_equal(e%ellipsoid3d%rates, a%ellipsoid3d%rates, 0.0_wp, l // 'ellipsoid3d.rates')
+    call assert_true(e%numerics%tensile .eqv. a%numerics%tensile, l // 'numerics.tensile')
+    call assert_equal(e%numerics%tensile_eps, a%numerics%tensile_eps, 0.0_wp, &
+                      l // 'numerics.tensile_eps')
+    call assert_equal(e%numerics%tensile_n, a%numerics%tensile_n, l // 'numerics.tensile_n')
+    call assert_equal(e%square_rotation%side, a%square_rotation%side, 0.0_wp, &
+                      l // 'square_rotation.side')
+    call assert_equal(e%square_rotation%omega, a%square_rotation%omega, 0.0_wp, &
+                      l // 'square_rotation.omega')
+    call assert_equal(e%square_vortical%side, a%square_vortical%side, 0.0_wp, &
+                      l // 'square_vortical.side')
+    call assert_equal(e%square_vortical%v0, a%square_vortical%v0, 0.0_wp, &
+                      l // 'square_vortical.v0')
   end subroutine check_same
 
   subroutine echo_to(c, path)

@@ -3,7 +3,7 @@
 !> field), and the continuum values of div u and grad p on a lattice.
 module test_fluid_rhs
   use kinds, only: wp, i8
-  use kernels, only: kernel_init, kernel_f, KERNEL_WENDLAND_C2
+  use kernels, only: kernel_init, kernel_f, kernel_w, KERNEL_WENDLAND_C2
   use neighbours, only: neighbour_list_t, neighbour_build
   use fluid_rhs, only: rhs_params_t, rhs_density_gradient, rhs_evaluate, &
                        VISC_NONE, VISC_DELTA, VISC_MONAGHAN, DIFF_NONE, DIFF_MOLTENI, &
@@ -32,6 +32,8 @@ contains
     call run_test('fluid_rhs', 'rigid_rotation_no_divergence_no_viscous_force', rigid_rotation)
     call run_test('fluid_rhs', 'viscosity_dissipates', viscosity_dissipates)
     call run_test('fluid_rhs', 'lattice_divergence_and_pressure_gradient', lattice_fields)
+    call run_test('fluid_rhs', 'tensile_control_conserves_momentum', tensile_conservation)
+    call run_test('fluid_rhs', 'tensile_control_repulsive_under_tension_only', tensile_pair)
   end subroutine suite_fluid_rhs
 
   !> Lattice of spacing dx in the box [-L, L]^dim, optionally jittered, with
@@ -265,5 +267,93 @@ contains
     end do
     call assert_true(inner > 100, 'enough interior particles')
   end subroutine lattice_fields
+
+  !> (E7) The tensile control is pairwise antisymmetric and central like the
+  !> pressure term: momentum and angular momentum stay conserved with it on,
+  !> in a cloud whose pressures are mostly negative; and it changes the
+  !> forces (it is not silently off).
+  subroutine tensile_conservation()
+    type(cloud_t) :: c
+    integer :: dim, i
+    real(wp) :: mom(3), ang(3), scale
+    real(wp), allocatable :: du_off(:, :)
+    do dim = 2, 3
+      call make_cloud(c, dim, merge(12, 5, dim == 2), 0.6_wp, 70 + dim)
+      call random_number(c%u)
+      c%u = c%u - 0.5_wp
+      if (dim == 2) c%u(3, :) = 0
+      c%p = 100 * (c%rho - 1) - 0.3_wp
+      c%prm%diffusion = DIFF_MOLTENI
+      call evaluate(c)
+      du_off = c%du
+      c%prm%tensile_eps = 0.4_wp
+      c%prm%tensile_dx = c%dx
+      call evaluate(c)
+      mom = 0; ang = 0
+      do i = 1, c%n
+        mom = mom + c%m(i) * c%du(:, i)
+        ang = ang + c%m(i) * cross(c%x(:, i), c%du(:, i))
+      end do
+      scale = sum(c%m * sqrt(sum(c%du**2, dim=1)))
+      call assert_true(maxval(abs(c%du - du_off)) > 1e-3_wp * maxval(abs(du_off)), &
+                       'the tensile control acts')
+      call assert_equal([0.0_wp, 0.0_wp, 0.0_wp], mom / scale, 1e-13_wp, 'linear momentum')
+      call assert_equal([0.0_wp, 0.0_wp, 0.0_wp], ang / scale, 1e-13_wp, 'angular momentum')
+    end do
+  end subroutine tensile_conservation
+
+  !> Two particles at distance r, alone: the control adds
+  !>   tens_i = -m_j (R_i + R_j) (W(r)/W(dx))^n F(r) x_ij,  R = eps |p|/rho^2 (p < 0),
+  !> which points from j to i (repulsion, F < 0) when either pressure is
+  !> negative, and nothing when both are positive.
+  subroutine tensile_pair()
+    type(cloud_t) :: c
+    real(wp) :: r, pressures(2, 3), ri(2), expected(3), du_off(3, 2)
+    integer :: k, i
+    pressures = reshape([-0.5_wp, -0.2_wp, -0.5_wp, 0.3_wp, 0.5_wp, 0.2_wp], [2, 3])
+    c%dim = 2
+    c%n = 2
+    c%dx = 0.1_wp
+    r = 1.3_wp * c%dx
+    c%x = reshape([0.0_wp, 0.0_wp, 0.0_wp, r * 0.6_wp, r * 0.8_wp, 0.0_wp], [3, 2])
+    allocate(c%u(3, 2), c%p(2), c%g(3, 2), c%drho(2), c%du(3, 2))
+    c%u = 0
+    c%rho = [1.01_wp, 0.98_wp]
+    c%m = [1.0_wp, 1.2_wp] * c%dx**2
+    c%g = 0
+    c%prm%dim = 2
+    c%prm%kernel = kernel_init(KERNEL_WENDLAND_C2, 2, 2 * c%dx)
+    c%prm%viscosity = VISC_NONE
+    c%prm%diffusion = DIFF_NONE
+    call neighbour_build(c%nl, 2, 2, 2, c%x, [1_i8, 2_i8], c%prm%kernel%support, &
+                         minval(c%x, dim=2))
+    do k = 1, 3
+      c%p = pressures(:, k)
+      c%prm%tensile_eps = 0
+      call evaluate(c)
+      du_off = c%du(:, 1:2)
+      c%prm%tensile_eps = 0.2_wp
+      c%prm%tensile_n = 4
+      c%prm%tensile_dx = c%dx
+      call evaluate(c)
+      do i = 1, 2
+        ri(i) = 0.2_wp * max(0.0_wp, -c%p(i)) / c%rho(i)**2
+      end do
+      ! on particle 1 (x_12 = x_1 - x_2), from particle 2
+      expected = -c%m(2) * sum(ri) * (kernel_w(c%prm%kernel, r) / kernel_w(c%prm%kernel, c%dx))**4 &
+                 * kernel_f(c%prm%kernel, r) * (c%x(:, 1) - c%x(:, 2))
+      call assert_equal(expected, c%du(:, 1) - du_off(:, 1), 1e-12_wp * maxval(abs(du_off)), &
+                        'E7 on particle 1')
+      call assert_equal(-expected * c%m(1) / c%m(2), c%du(:, 2) - du_off(:, 2), &
+                        1e-12_wp * maxval(abs(du_off)), 'E7 on particle 2: opposite momentum')
+      if (k < 3) then
+        call assert_true(sum((c%du(:, 1) - du_off(:, 1)) * (c%x(:, 1) - c%x(:, 2))) > 0, &
+                         'repulsive when a pressure is negative')
+      else
+        call assert_equal(0.0_wp, maxval(abs(c%du(:, 1:2) - du_off)), 0.0_wp, &
+                          'no control when both pressures are positive')
+      end if
+    end do
+  end subroutine tensile_pair
 
 end module test_fluid_rhs

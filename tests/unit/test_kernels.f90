@@ -3,7 +3,7 @@
 !> for constants and linear fields), and F = W'/r against a finite difference.
 module test_kernels
   use kinds, only: wp
-  use kernels, only: kernel_t, kernel_init, kernel_w, kernel_f, &
+  use kernels, only: kernel_t, kernel_init, kernel_w, kernel_f, kernel_w_list, kernel_f_list, &
                      KERNEL_WENDLAND_C2, KERNEL_CUBIC_SPLINE, KERNEL_GAUSSIAN
   use testing, only: run_test, assert_equal, assert_true
   implicit none
@@ -17,6 +17,7 @@ contains
     call run_test('kernels', 'moments_3d', moments_3d)
     call run_test('kernels', 'gradient_factor_matches_derivative', gradient_factor)
     call run_test('kernels', 'compact_support', compact_support)
+    call run_test('kernels', 'list_forms_match_pointwise', list_forms)
   end subroutine suite_kernels
 
   !> Lattice sums over spacing dx = h/m around the origin: sum W dV, the
@@ -114,5 +115,29 @@ contains
       end do
     end do
   end subroutine compact_support
+
+  !> kernel_w_list and kernel_f_list (the vectorised forms used in the pair
+  !> loops) give kernel_w and kernel_f to round-off inside the support, for
+  !> every kernel and dimension.
+  subroutine list_forms()
+    integer, parameter :: n = 200
+    integer :: kinds(3), kind, dim, l, q
+    type(kernel_t) :: k
+    real(wp) :: r2(n), w(n), f(n)
+    kinds = [KERNEL_WENDLAND_C2, KERNEL_CUBIC_SPLINE, KERNEL_GAUSSIAN]
+    do dim = 2, 3
+      do l = 1, 3
+        kind = kinds(l)
+        k = kernel_init(kind, dim, 0.7_wp)
+        r2 = [((k%support * (q - 0.5_wp) / n)**2, q = 1, n)]
+        call kernel_w_list(k, n, r2, w)
+        call kernel_f_list(k, n, r2, f)
+        call assert_equal(kernel_w(k, sqrt(r2)), w, 1e-13_wp * kernel_w(k, 0.0_wp), &
+                          'kernel_w_list against kernel_w')
+        call assert_equal(kernel_f(k, sqrt(r2)), f, 1e-13_wp * abs(kernel_f(k, 1e-3_wp)), &
+                          'kernel_f_list against kernel_f')
+      end do
+    end do
+  end subroutine list_forms
 
 end module test_kernels
