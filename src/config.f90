@@ -18,7 +18,7 @@ module config
   private
   public :: config_t, run_params_t, particles_params_t, physics_params_t, &
             numerics_params_t, output_params_t, circle2d_params_t, ellipsoid3d_params_t, &
-            square_rotation_params_t, square_vortical_params_t
+            square_rotation_params_t, square_vortical_params_t, parallel_params_t
   public :: config_load, config_write_defaults, config_echo, config_write_help, config_dim
   public :: case_t, CASES, NAME_LEN, DIR_LEN_MAX, MAX_PROBES
 
@@ -52,6 +52,10 @@ module config
     [character(len=NAME_LEN) :: 'delta', 'monaghan', 'none']
   character(len=NAME_LEN), parameter :: DIFFUSIONS(*) = &
     [character(len=NAME_LEN) :: 'molteni', 'antuono', 'none']
+  character(len=NAME_LEN), parameter :: DECOMPOSITIONS(*) = &
+    [character(len=NAME_LEN) :: 'slab', 'metis']
+  character(len=NAME_LEN), parameter :: BALANCES(*) = &
+    [character(len=NAME_LEN) :: 'particles', 'pairs']
 
   !> &run: what to run and for how long.
   type :: run_params_t
@@ -59,6 +63,7 @@ module config
     real(wp) :: t_end = 2.0_wp
     integer :: max_steps = 0                             !< 0: no limit
     real(wp) :: progress_interval = 5.0_wp               !< wall-clock seconds
+    character(len=DIR_LEN_MAX + 1) :: restart = ''       !< snapshot to continue from
   end type run_params_t
 
   !> &particles: the initial layout.
@@ -130,6 +135,13 @@ module config
     real(wp) :: v0 = 1.0_wp
   end type square_vortical_params_t
 
+  !> &parallel: the domain decomposition across MPI ranks.
+  type :: parallel_params_t
+    character(len=NAME_LEN) :: decomposition = 'slab'
+    character(len=NAME_LEN) :: balance = 'particles'
+    real(wp) :: imbalance_threshold = 0.1_wp
+  end type parallel_params_t
+
   !> The whole configuration; every component has its default.
   type :: config_t
     type(run_params_t) :: run
@@ -141,6 +153,7 @@ module config
     type(ellipsoid3d_params_t) :: ellipsoid3d
     type(square_rotation_params_t) :: square_rotation
     type(square_vortical_params_t) :: square_vortical
+    type(parallel_params_t) :: parallel
   end type config_t
 
   !> A namelist group: its name and a line saying what it is for.
@@ -151,7 +164,7 @@ module config
 
   integer, parameter :: G_RUN = 1, G_PARTICLES = 2, G_PHYSICS = 3, G_NUMERICS = 4, &
                         G_OUTPUT = 5, G_CIRCLE2D = 6, G_ELLIPSOID3D = 7, &
-                        G_SQUARE_ROTATION = 8, G_SQUARE_VORTICAL = 9
+                        G_SQUARE_ROTATION = 8, G_SQUARE_VORTICAL = 9, G_PARALLEL = 10
   type(group_t), parameter :: GROUPS(*) = [ &
     group_t('run', 'what to run and for how long'), &
     group_t('particles', 'the initial particle layout'), &
@@ -163,14 +176,16 @@ module config
     group_t('square_rotation', &
             'the rotating square patch (2D), used when run.case = ''square_rotation'''), &
     group_t('square_vortical', &
-            'the vortical square patch (2D), used when run.case = ''square_vortical''')]
+            'the vortical square patch (2D), used when run.case = ''square_vortical'''), &
+    group_t('parallel', 'the domain decomposition across MPI ranks (doc/parallel.md)')]
 
   ! Variable types, bound rules and lists of allowed words for the table VARS.
   integer, parameter :: T_INT = 1, T_REAL = 2, T_STRING = 3, T_LOGICAL = 4
   integer, parameter :: LO_NONE = 0, LO_GT = 1, LO_GE = 2
   integer, parameter :: HI_NONE = 0, HI_LT = 1, HI_LE = 2
   integer, parameter :: CH_NONE = 0, CH_CASE = 1, CH_PLACEMENT = 2, CH_EOS = 3, &
-                        CH_KERNEL = 4, CH_INTEGRATOR = 5, CH_VISCOSITY = 6, CH_DIFFUSION = 7
+                        CH_KERNEL = 4, CH_INTEGRATOR = 5, CH_VISCOSITY = 6, CH_DIFFUSION = 7, &
+                        CH_DECOMPOSITION = 8, CH_BALANCE = 9
   integer, parameter :: SCALAR(2) = [0, 0]
 
   !> A variable of a group: the one place that says what it is and what is
@@ -197,6 +212,9 @@ module config
           'stop after this many steps, 0 for no limit (a final snapshot is written then)'), &
     var_t(G_RUN, 'progress_interval', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_NONE, '', 'wall-clock seconds between progress lines'), &
+    var_t(G_RUN, 'restart', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
+          'empty, or an existing snapshot file of the same case', &
+          'snapshot to continue the run from, e.g. runs/circle2d/snap_00010.h5 (empty: none)'), &
     var_t(G_PARTICLES, 'n', T_INT, SCALAR, LO_GE, HI_LE, 50.0_wp, 2000000000.0_wp, CH_NONE, &
           '', 'approximate number of particles; the spacing dx follows from it'), &
     var_t(G_PARTICLES, 'placement', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
@@ -274,7 +292,13 @@ module config
     var_t(G_SQUARE_VORTICAL, 'side', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_NONE, '', 'side L of the initial square, centred at the origin'), &
     var_t(G_SQUARE_VORTICAL, 'v0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
-          '', 'V0: initial u = V0 (f(y) - e^-4), v = -V0 (f(x) - e^-4), f(s) = exp(-(4s/L)^2)')]
+          '', 'V0: initial u = V0 (f(y) - e^-4), v = -V0 (f(x) - e^-4), f(s) = exp(-(4s/L)^2)'), &
+    var_t(G_PARALLEL, 'decomposition', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
+          CH_DECOMPOSITION, '', 'slabs along the longest axis, or a METIS partition of cells'), &
+    var_t(G_PARALLEL, 'balance', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
+          CH_BALANCE, '', 'work measure for the balance: particle count or listed pairs'), &
+    var_t(G_PARALLEL, 'imbalance_threshold', T_REAL, SCALAR, LO_GT, HI_LE, 0.0_wp, 10.0_wp, &
+          CH_NONE, '', 're-balance when max/mean work exceeds 1 + this')]
 
   real(wp), parameter :: RATES_SUM_TOL = 1.0e-12_wp   !< incompressibility of the rates
   real(wp), parameter :: MACH_FACTOR = 3.0_wp          !< c0 >= MACH_FACTOR * max initial speed
@@ -889,6 +913,8 @@ contains
       call read_square_rotation(text, c%square_rotation, ios, iomsg)
     case (G_SQUARE_VORTICAL)
       call read_square_vortical(text, c%square_vortical, ios, iomsg)
+    case (G_PARALLEL)
+      call read_parallel(text, c%parallel, ios, iomsg)
     case default
       ios = 1
     end select
@@ -904,19 +930,22 @@ contains
     integer, intent(out) :: ios
     character(len=*), intent(inout) :: iomsg
     character(len=NAME_LEN) :: case
+    character(len=4 * DIR_LEN_MAX) :: restart   ! wider than p%restart, as for output.dir
     real(wp) :: t_end, progress_interval
     integer :: max_steps
-    namelist /run/ case, t_end, max_steps, progress_interval
+    namelist /run/ case, t_end, max_steps, progress_interval, restart
     case = p%case_name
     t_end = p%t_end
     max_steps = p%max_steps
     progress_interval = p%progress_interval
+    restart = p%restart
     read(text, nml=run, iostat=ios, iomsg=iomsg)
     if (ios /= 0) return
     p%case_name = case
     p%t_end = t_end
     p%max_steps = max_steps
     p%progress_interval = progress_interval
+    p%restart = restart(1:len(p%restart))
   end subroutine read_run
 
   subroutine read_particles(text, p, ios, iomsg)
@@ -1074,6 +1103,24 @@ contains
     p%omega = omega
   end subroutine read_square_rotation
 
+  subroutine read_parallel(text, p, ios, iomsg)
+    character(len=*), intent(in) :: text
+    type(parallel_params_t), intent(inout) :: p
+    integer, intent(out) :: ios
+    character(len=*), intent(inout) :: iomsg
+    character(len=NAME_LEN) :: decomposition, balance
+    real(wp) :: imbalance_threshold
+    namelist /parallel/ decomposition, balance, imbalance_threshold
+    decomposition = p%decomposition
+    balance = p%balance
+    imbalance_threshold = p%imbalance_threshold
+    read(text, nml=parallel, iostat=ios, iomsg=iomsg)
+    if (ios /= 0) return
+    p%decomposition = lower(decomposition)
+    p%balance = lower(balance)
+    p%imbalance_threshold = imbalance_threshold
+  end subroutine read_parallel
+
   subroutine read_square_vortical(text, p, ios, iomsg)
     character(len=*), intent(in) :: text
     type(square_vortical_params_t), intent(inout) :: p
@@ -1150,6 +1197,20 @@ contains
       call fail(err, origin, '&output dir = ' // quoted(dir(1:40)) // '... is too long', line, &
                 ': allowed at most ' // int_str(DIR_LEN_MAX) // ' characters')
       return
+    end if
+
+    if (len_trim(c%run%restart) > 0) then
+      call origin_of(origins, path, 'run.restart', origin, line)
+      block
+        logical :: exists
+        inquire(file=trim(c%run%restart), exist=exists)
+        if (.not. exists) then
+          call fail(err, origin, '&run restart = ' // quoted(trim(c%run%restart)) // &
+                    ' does not exist', line, ': give an existing snapshot file ' // &
+                    '(snap_NNNNN.h5 in a run directory), or leave it empty')
+          return
+        end if
+      end block
     end if
 
     call origin_of(origins, path, 'output.probes', origin, line)
@@ -1389,6 +1450,14 @@ contains
       x = c%square_vortical%side
     case ('square_vortical.v0')
       x = c%square_vortical%v0
+    case ('run.restart')
+      text = quoted(c%run%restart)
+    case ('parallel.decomposition')
+      text = quoted(c%parallel%decomposition)
+    case ('parallel.balance')
+      text = quoted(c%parallel%balance)
+    case ('parallel.imbalance_threshold')
+      x = c%parallel%imbalance_threshold
     end select
     if (v%dims(1) == 0) then
       if (v%type == T_INT) text = int_str(nint(x))
@@ -1633,6 +1702,10 @@ contains
       list = VISCOSITIES
     case (CH_DIFFUSION)
       list = DIFFUSIONS
+    case (CH_DECOMPOSITION)
+      list = DECOMPOSITIONS
+    case (CH_BALANCE)
+      list = BALANCES
     case default
       allocate(list(0))
     end select

@@ -12,16 +12,20 @@ module simulation
   use fluid_rhs, only: VISC_NONE, VISC_DELTA, VISC_MONAGHAN, DIFF_NONE, DIFF_MOLTENI, &
                        DIFF_ANTUONO
   use solver, only: solver_t, solver_init, solver_step, solver_evaluate, solver_time_step, &
-                    SCHEME_RK4, SCHEME_PC2
+                    solver_sync_halo, &
+                    SCHEME_RK4, SCHEME_PC2, BALANCE_PARTICLES, BALANCE_PAIRS
   use diagnostics, only: kinetic_energy, total_mass, total_momentum, probe_pressure, &
                          find_bad_particle
   use case_base, only: case_t, case_fields_t
   use case_factory, only: make_case
   use parallel_env, only: parallel_env_t, par_sum, par_any, par_max, wall_time
-  use fileutil, only: make_directory, join_path, rename_file, temp_path
+  use fileutil, only: make_directory, join_path, rename_file, temp_path, file_exists
   use snapshot_io, only: snapshot_field_t, snapshot_write, snapshot_filename, &
                          xdmf_index_t, xdmf_init
-  use timeseries, only: timeseries_t, timeseries_init, timeseries_add, timeseries_flush
+  use timeseries, only: timeseries_t, timeseries_init, timeseries_add, timeseries_flush, &
+                        timeseries_load
+  use restart, only: restart_read, restart_index_history, snapshot_number
+  use domain, only: DECOMP_SLAB, DECOMP_METIS
   implicit none
   private
   public :: simulation_run
@@ -50,15 +54,35 @@ contains
     integer, intent(out) :: status
     type(solver_t) :: s
     type(run_t) :: run
-    real(wp) :: t, dt, dx, t_next_out, wall0, wall_last, dt_est, t_end
-    integer :: step, dim, i_bad
-    logical :: ok, done, snap_now
+    real(wp) :: t, dt, dx, t_next_out, wall0, wall_last, dt_est, t_end, tol, t0_run
+    integer :: step, dim, i_bad, k_out, step0
+    logical :: ok, done, snap_now, restarting, have_series
     character(len=:), allocatable :: errmsg
 
     status = 0
     dim = config_dim(cfg)
     t_end = cfg%run%t_end
+    tol = 1e-12_wp * max(1.0_wp, t_end)
+    t = 0
+    step = 0
+    restarting = len_trim(cfg%run%restart) > 0
     call setup(cfg, env, s, run, dx)
+    if (restarting) then
+      ! the snapshot's particles replace the initial ones; nothing is
+      ! written before it has been read and checked
+      call restart_read(env, trim(cfg%run%restart), trim(cfg%run%case_name), dim, s%parts, &
+                        t, step, ok, errmsg)
+      if (ok .and. t >= t_end - tol) then
+        ok = .false.
+        write(errmsg, '(a,es12.5,a,es12.5,a)') '&run restart: the snapshot is at t = ', t, &
+          ', not before &run t_end = ', t_end, ': nothing to do (raise run.t_end)'
+      end if
+      if (.not. par_any_fail(env, ok, errmsg)) then
+        status = 2
+        return
+      end if
+      run%n_snapshots = max(0, snapshot_number(trim(cfg%run%restart)) + 1)
+    end if
     call solver_init(s, env)
     run%n_global = nint(par_sum(env, real(s%parts%n, wp)), i8)
 
@@ -77,35 +101,54 @@ contains
     call xdmf_init(run%xdmf, join_path(run%dir, 'snapshots.xdmf'))
     call timeseries_init(run%ts, env%comm, join_path(run%dir, 'timeseries.csv'), &
                          column_names(run, dim))
+    if (restarting) then
+      ! continue the history of the run directory: earlier snapshots stay in
+      ! the index, time-series rows up to the restart time are kept
+      call restart_index_history(env, run%dir, run%n_snapshots, run%xdmf, ok, errmsg)
+      have_series = file_exists(join_path(run%dir, 'timeseries.csv'))
+      if (ok .and. have_series) &       ! collective: every rank sees the same file
+        call timeseries_load(run%ts, join_path(run%dir, 'timeseries.csv'), t, ok, errmsg)
+      if (.not. par_any_fail(env, ok, errmsg)) then
+        status = 1
+        return
+      end if
+    end if
 
-    ! first evaluation: the time-step limits to report, and the state at t = 0
+    ! first evaluation: the time-step limits to report, and the initial state
     call solver_evaluate(s, env)
     call solver_time_step(s, env, dt_est)
     call print_start(cfg, env, s, run, dx, dt_est)
-
-    t = 0
-    step = 0
-    call sample(run, env, s, t, step, 0.0_wp)
-    call write_snapshot(cfg, env, s, run, t, step, ok)
-    if (.not. ok) then
-      status = 1
-      return
+    if (restarting) then
+      if (env%rank == 0) write(output_unit, '(a,es12.5,a,i0,a)') '  restarted from ' // &
+        trim(cfg%run%restart) // ' at t = ', t, ', step ', step, ''
+    else
+      call sample(run, env, s, t, step, 0.0_wp)
+      call write_snapshot(cfg, env, s, run, t, step, ok)
+      if (.not. ok) then
+        status = 1
+        return
+      end if
     end if
-    t_next_out = cfg%output%dt
+    ! output times are k output.dt (a product, not a running sum, so a
+    ! restarted run finds the same ones)
+    k_out = int(t / cfg%output%dt + 1e-9_wp)
+    t_next_out = (k_out + 1) * cfg%output%dt
     wall0 = wall_time()
     wall_last = wall0
-    done = t >= t_end
+    t0_run = t
+    step0 = step
+    done = t >= t_end - tol .or. (cfg%run%max_steps > 0 .and. step >= cfg%run%max_steps)
 
     do while (.not. done)
       call solver_step(s, env, min(t_next_out, t_end) - t, dt)
       step = step + 1
       ! the last step lands on the output time exactly (dt was clipped to it)
-      if (abs(min(t_next_out, t_end) - (t + dt)) <= 1e-12_wp * max(1.0_wp, t_end)) then
+      if (abs(min(t_next_out, t_end) - (t + dt)) <= tol) then
         t = min(t_next_out, t_end)
       else
         t = t + dt
       end if
-      done = t >= t_end .or. (cfg%run%max_steps > 0 .and. step >= cfg%run%max_steps)
+      done = t >= t_end - tol .or. (cfg%run%max_steps > 0 .and. step >= cfg%run%max_steps)
 
       i_bad = find_bad_particle(s%parts)
       if (par_any(env, i_bad > 0)) then
@@ -116,11 +159,15 @@ contains
       end if
 
       if (mod(step, cfg%output%probe_every) == 0 .or. done) call sample(run, env, s, t, step, dt)
-      snap_now = t >= t_next_out - 1e-12_wp * max(1.0_wp, t_end) .or. done
+      snap_now = t >= t_next_out - tol .or. done
       if (snap_now) then
-        do while (t_next_out <= t + 1e-12_wp * max(1.0_wp, t_end))
-          t_next_out = t_next_out + cfg%output%dt
+        do while ((k_out + 1) * cfg%output%dt <= t + tol)
+          k_out = k_out + 1
         end do
+        t_next_out = (k_out + 1) * cfg%output%dt
+        ! case fields (e.g. vorticity) may use the halo copies: bring them
+        ! to the end of the step
+        call solver_sync_halo(s, env)
         call write_snapshot(cfg, env, s, run, t, step, ok)
         if (.not. ok) then
           status = 1
@@ -132,11 +179,11 @@ contains
       end if
       if (wall_time() - wall_last >= cfg%run%progress_interval .or. done) then
         wall_last = wall_time()
-        call print_progress(env, step, t, dt, t_end, wall_last - wall0, s%imbalance)
+        call print_progress(env, step, t, dt, t0_run, t_end, wall_last - wall0, s%imbalance)
       end if
     end do
 
-    call print_end(env, s, run, step, wall_time() - wall0)
+    call print_end(env, s, run, step - step0, wall_time() - wall0)
     call run%problem%summary(env, output_unit, t, s%parts, s%rhs%kernel)
   end subroutine simulation_run
 
@@ -193,6 +240,9 @@ contains
     s%cfl_force = cfg%numerics%cfl_force
     s%cfl_visc = cfg%numerics%cfl_visc
     s%skin_min = cfg%numerics%skin * s%rhs%kernel%h
+    s%decomposition = merge(DECOMP_METIS, DECOMP_SLAB, cfg%parallel%decomposition == 'metis')
+    s%balance = merge(BALANCE_PAIRS, BALANCE_PARTICLES, cfg%parallel%balance == 'pairs')
+    s%imbalance_threshold = cfg%parallel%imbalance_threshold
     run%n_probes = cfg%output%n_probes
     run%probes = cfg%output%probes
     if (dim == 2) run%probes(3, :) = 0
@@ -369,14 +419,14 @@ contains
     flush(output_unit)
   end subroutine print_start
 
-  subroutine print_progress(env, step, t, dt, t_end, wall, imbalance)
+  subroutine print_progress(env, step, t, dt, t_start, t_end, wall, imbalance)
     type(parallel_env_t), intent(in) :: env
     integer, intent(in) :: step
-    real(wp), intent(in) :: t, dt, t_end, wall, imbalance
+    real(wp), intent(in) :: t, dt, t_start, t_end, wall, imbalance
     real(wp) :: eta
     if (env%rank /= 0) return
     eta = 0
-    if (t > 0) eta = wall * (t_end - t) / t
+    if (t > t_start) eta = wall * (t_end - t) / (t - t_start)
     if (env%nranks > 1) then
       write(output_unit, '(a,i8,a,f10.5,a,es10.3,a,f9.1,a,f9.1,a,f6.3)') 'step ', step, &
         '  t ', t, '  dt ', dt, '  wall ', wall, ' s  ETA ', eta, ' s  imbalance ', imbalance

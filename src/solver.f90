@@ -14,7 +14,8 @@ module solver
   implicit none
   private
   public :: solver_t, solver_init, solver_step, solver_evaluate, solver_rebuild, &
-            solver_time_step, SCHEME_RK4, SCHEME_PC2, BALANCE_PARTICLES, BALANCE_PAIRS
+            solver_time_step, solver_sync_halo, SCHEME_RK4, SCHEME_PC2, BALANCE_PARTICLES, &
+            BALANCE_PAIRS
 
   integer, parameter :: SCHEME_RK4 = 1   !< (T1) classical 4th-order Runge-Kutta
   integer, parameter :: SCHEME_PC2 = 2   !< (T2) 2-stage predictor-corrector
@@ -176,6 +177,17 @@ contains
     end associate
     s%n_evaluations = s%n_evaluations + 1
   end subroutine solver_evaluate
+
+  !> Brings the halo copies to the current state (positions, velocities,
+  !> densities and pressures), e.g. before a snapshot whose fields use them.
+  subroutine solver_sync_halo(s, env)
+    type(solver_t), intent(inout) :: s
+    type(parallel_env_t), intent(in) :: env
+    integer :: ntot
+    call halo_refresh(s%halo, env, s%parts)
+    ntot = s%parts%n + s%parts%n_halo
+    s%parts%p(s%parts%n + 1:ntot) = eos_pressure(s%eos, s%parts%rho(s%parts%n + 1:ntot))
+  end subroutine solver_sync_halo
 
   !> (T3) dt = min(cfl h/(c0 + Umax), cfl_force sqrt(h/max|a|), cfl_visc h^2/nu)
   !> from the velocities and the accelerations in s%du.

@@ -113,6 +113,8 @@ def test_bad_input_writes_nothing():
         (["particles.n=abc"], ["particles.n", "abc", "integer"]),
         (["numerics.cfll=1"], ["&numerics", "cfll", "cfl"]),
         (["numerics.integrator=pc2"], ["&numerics", "cfl", "1.5", "pc2", "1.0"]),
+        (["parallel.decomposition=metiss"], ["&parallel", "decomposition", "metiss", "slab"]),
+        (["parallel.imbalance_threshold=0"], ["&parallel", "imbalance_threshold", "0"]),
         (["numerics.kernel=wendlnd"], ["&numerics", "kernel", "wendlnd"]),
         (["numerix.cfl=1"], ["numerix"]),
         (["physics.c0=1"], ["&physics", "c0"]),

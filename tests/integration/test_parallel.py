@@ -46,3 +46,72 @@ def test_slab_bitwise_with_density_gradient_exchange():
     # the Antuono diffusion needs a second halo exchange (of the
     # renormalised density gradient) inside every right-hand side
     check_agreement(["numerics.diffusion=antuono", "physics.eos=tait"], "antuono", [3])
+
+
+def test_metis_bitwise_at_2_and_3_ranks():
+    check_agreement(["parallel.decomposition=metis"], "metis", [2, 3])
+
+
+def test_pairs_balance_bitwise():
+    check_agreement(["parallel.balance=pairs", "parallel.imbalance_threshold=0.02"], "pairs", [2])
+
+
+def _restart_pair(np_a, np_b, extra_b=()):
+    """Run A: 200 steps with snapshots every 0.5 (the one at t = 0.5 comes
+    at step 75).  Run B: a copy of A's directory cut after that snapshot,
+    restarted from it to step 200.  Returns both final states and dirs."""
+    import shutil
+    base = scratch("restart")
+    a = base / "a"
+    p = run_sph(["input/circle2d.nml", "particles.n=5000", "run.max_steps=200",
+                 "output.dt=0.5", f"output.dir={a}"], np=np_a)
+    assert p.returncode == 0, p.out
+    b = base / "b"
+    shutil.copytree(a, b)
+    for f in b.glob("snap_*.h5"):
+        if int(f.stem[5:]) > 1:
+            f.unlink()
+    p = run_sph(["input/circle2d.nml", "particles.n=5000", "run.max_steps=200",
+                 "output.dt=0.5", f"output.dir={b}", f"run.restart={b / 'snap_00001.h5'}"]
+                + list(extra_b), np=np_b)
+    assert p.returncode == 0, p.out
+    assert "restarted from" in p.stdout
+    return a, b
+
+
+def test_restart_bitwise_same_ranks():
+    a, b = _restart_pair(2, 2)
+    (sa, ta, na), (sb, tb, nb) = final_state(a), final_state(b)
+    assert na == nb == 200 and ta == tb
+    for k in FIELDS:
+        assert np.array_equal(sa[k].view(np.int64), sb[k].view(np.int64)), k
+    # the time series was continued, not restarted: same rows, same times
+    ra = np.genfromtxt(a / "timeseries.csv", delimiter=",", names=True)
+    rb = np.genfromtxt(b / "timeseries.csv", delimiter=",", names=True)
+    assert len(ra) == len(rb) and np.array_equal(ra["time"], rb["time"])
+    assert np.allclose(ra["kinetic_energy"], rb["kinetic_energy"], rtol=1e-13, atol=0)
+    # and the index lists every snapshot, the earlier ones included
+    assert (b / "snapshots.xdmf").read_text().count("<Grid Name") == \
+        (a / "snapshots.xdmf").read_text().count("<Grid Name")
+
+
+def test_restart_bitwise_other_ranks_and_decomposition():
+    a, b = _restart_pair(2, 3, ["parallel.decomposition=metis"])
+    (sa, _, _), (sb, _, _) = final_state(a), final_state(b)
+    for k in FIELDS:
+        assert np.array_equal(sa[k].view(np.int64), sb[k].view(np.int64)), k
+
+
+def test_bad_restart_writes_nothing():
+    d = scratch("badrestart") / "never"
+    p = run_sph(["input/circle2d.nml", f"output.dir={d}", "run.restart=/nonexistent/snap_00001.h5"])
+    assert p.returncode != 0 and "&run restart" in p.stderr and "does not exist" in p.stderr
+    assert not d.exists()
+    # a snapshot of another case
+    sq = scratch("sq") / "run"
+    p = run_sph(["input/square_rotation.nml", "particles.n=400", "run.t_end=0.01",
+                 f"output.dir={sq}"])
+    assert p.returncode == 0, p.out
+    p = run_sph(["input/circle2d.nml", f"output.dir={d}", f"run.restart={sq / 'snap_00000.h5'}"])
+    assert p.returncode != 0 and "square_rotation" in p.stderr, p.stderr
+    assert not d.exists()

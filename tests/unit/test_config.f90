@@ -80,8 +80,8 @@ contains
       if (index(line, '! ') > 0 .and. index(line, '(allowed: ') > 0) ncommented = ncommented + 1
     end do
     close(u, status='delete')
-    ! 39 variables, probes written once (probe 1, as n_probes = 1)
-    call assert_equal(39, nvars, 'variable lines in the defaults file')
+    ! 43 variables, probes written once (probe 1, as n_probes = 1)
+    call assert_equal(43, nvars, 'variable lines in the defaults file')
     call assert_equal(nvars, ncommented, 'variable lines with a comment saying what is allowed')
   end subroutine defaults_round_trip
 
@@ -134,8 +134,12 @@ contains
     c%square_rotation%omega = 0.25_wp
     c%square_vortical%side = 1.0e-3_wp
     c%square_vortical%v0 = 0.1_wp
+    c%parallel%decomposition = 'metis'
+    c%parallel%balance = 'pairs'
+    c%parallel%imbalance_threshold = 1.0_wp / 3
 
     path = scratch // '/echo.nml'
+    c%run%restart = path          ! any existing file passes the validation
     call echo_to(c, path)
     call config_load(path, [character(len=1) ::], back, ok, msg)
     call assert_true(ok, 'echo loads: ' // msg)
@@ -540,6 +544,12 @@ contains
                       l // 'square_vortical.side')
     call assert_equal(e%square_vortical%v0, a%square_vortical%v0, 0.0_wp, &
                       l // 'square_vortical.v0')
+    call assert_equal(trim(e%run%restart), trim(a%run%restart), l // 'run.restart')
+    call assert_equal(trim(e%parallel%decomposition), trim(a%parallel%decomposition), &
+                      l // 'parallel.decomposition')
+    call assert_equal(trim(e%parallel%balance), trim(a%parallel%balance), l // 'parallel.balance')
+    call assert_equal(e%parallel%imbalance_threshold, a%parallel%imbalance_threshold, 0.0_wp, &
+                      l // 'parallel.imbalance_threshold')
   end subroutine check_same
 
   subroutine echo_to(c, path)
