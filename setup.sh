@@ -27,5 +27,5 @@ make -j"$(nproc)"
 if [ "${CI:-false}" != "true" ]; then
   echo "== running the default case: input/circle2d.nml"
   export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
-  mpirun -np 1 ./sph input/circle2d.nml
+  mpirun -np 2 ./sph input/circle2d.nml
 fi
