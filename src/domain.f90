@@ -185,14 +185,7 @@ contains
     integer, allocatable :: idx(:)
     integer :: k, it, p, i
     p = env%nranks
-    do k = 1, 3
-      lo(k) = huge(1.0_wp); hi(k) = -huge(1.0_wp)
-      if (n > 0) then
-        lo(k) = minval(x(k, 1:n)); hi(k) = maxval(x(k, 1:n))
-      end if
-      lo(k) = par_min(env, lo(k))
-      hi(k) = par_max(env, hi(k))
-    end do
+    call global_bounds(env, n, x, lo, hi)
     d%axis = maxloc(hi(1:dim) - lo(1:dim), dim=1)
     if (allocated(d%cuts)) deallocate(d%cuts)
     allocate(d%cuts(0:p))
@@ -230,6 +223,23 @@ contains
     end do
     d%cuts(1:p - 1) = b
   end subroutine balance_slabs
+
+  !> The bounding box of the particles of all ranks.
+  subroutine global_bounds(env, n, x, lo, hi)
+    type(parallel_env_t), intent(in) :: env
+    integer, intent(in) :: n
+    real(wp), intent(in) :: x(:, :)
+    real(wp), intent(out) :: lo(3), hi(3)
+    integer :: k
+    do k = 1, 3
+      lo(k) = huge(1.0_wp); hi(k) = -huge(1.0_wp)
+      if (n > 0) then
+        lo(k) = minval(x(k, 1:n)); hi(k) = maxval(x(k, 1:n))
+      end if
+      lo(k) = par_min(env, lo(k))
+      hi(k) = par_max(env, hi(k))
+    end do
+  end subroutine global_bounds
 
   !> Number of sorted values strictly below v.
   pure integer function count_below(xs, v) result(c)
@@ -298,14 +308,7 @@ contains
     real(wp), allocatable :: work(:)
     integer, allocatable :: vid(:), part(:), xadj(:), adjncy(:), vwgt(:)
     integer :: k, i, ncell, nv, c(3), nb(3), di, dj, dk, zr, ne, ci
-    do k = 1, 3
-      lo(k) = huge(1.0_wp); hi(k) = -huge(1.0_wp)
-      if (n > 0) then
-        lo(k) = minval(x(k, 1:n)); hi(k) = maxval(x(k, 1:n))
-      end if
-      lo(k) = par_min(env, lo(k))
-      hi(k) = par_max(env, hi(k))
-    end do
+    call global_bounds(env, n, x, lo, hi)
     d%cell = cell
     d%origin = lo
     d%nc = 1

@@ -6,7 +6,7 @@
 !> a cell map) through domain_owner and domain_ranks_near.
 module halo_exchange
   use kinds, only: wp, i8
-  use particles, only: particles_t, particles_reserve
+  use particles, only: particles_t, particles_reserve, particles_permute
   use domain, only: domain_t, domain_owner, domain_ranks_near
   use parallel_env, only: parallel_env_t
   use mpi_f08, only: MPI_Alltoall, MPI_Isend, MPI_Irecv, MPI_Waitall, MPI_Request, &
@@ -69,13 +69,7 @@ contains
     keep = pack([(i, i = 1, n)], dest == env%rank)
     nkeep = size(keep)
     n_left = n - nkeep
-    parts%x(:, 1:nkeep) = parts%x(:, keep)
-    parts%u(:, 1:nkeep) = parts%u(:, keep)
-    parts%x0(:, 1:nkeep) = parts%x0(:, keep)
-    parts%rho(1:nkeep) = parts%rho(keep)
-    parts%p(1:nkeep) = parts%p(keep)
-    parts%m(1:nkeep) = parts%m(keep)
-    parts%id(1:nkeep) = parts%id(keep)
+    call particles_permute(parts, keep)
     call particles_reserve(parts, nkeep + nrecv)
     do k = 1, nrecv
       i = nkeep + k

@@ -57,7 +57,9 @@ contains
     allocate(i1(cap)); i1 = 0; i1(1:old) = parts%id; call move_alloc(i1, parts%id)
   end subroutine particles_reserve
 
-  !> Reorders the owned particles: new slot k receives old particle perm(k).
+  !> Reorders the owned particles: new slot k receives old particle perm(k);
+  !> with fewer entries than particles it also selects (the first size(perm)
+  !> slots are filled, n is the caller's to set).
   subroutine particles_permute(parts, perm)
     type(particles_t), intent(inout) :: parts
     integer, intent(in) :: perm(:)

@@ -4,7 +4,7 @@
 module simulation
   use, intrinsic :: iso_fortran_env, only: output_unit, error_unit
   use kinds, only: wp, i8
-  use particles, only: particles_t
+  use particles, only: particles_t, particles_permute
   use memory_usage, only: peak_memory_mb
   use config, only: config_t, config_dim, config_echo
   use kernels, only: kernel_init, KERNEL_WENDLAND_C2, KERNEL_CUBIC_SPLINE, KERNEL_GAUSSIAN
@@ -254,21 +254,14 @@ contains
   subroutine keep_share(env, parts)
     type(parallel_env_t), intent(in) :: env
     type(particles_t), intent(inout) :: parts
-    integer :: lo, hi, nloc
+    integer :: lo, hi, k
     integer(i8) :: ntot
     if (env%nranks == 1) return
     ntot = parts%n
     lo = int(ntot * env%rank / env%nranks) + 1
     hi = int(ntot * (env%rank + 1) / env%nranks)
-    nloc = hi - lo + 1
-    parts%x(:, 1:nloc) = parts%x(:, lo:hi)
-    parts%u(:, 1:nloc) = parts%u(:, lo:hi)
-    parts%x0(:, 1:nloc) = parts%x0(:, lo:hi)
-    parts%rho(1:nloc) = parts%rho(lo:hi)
-    parts%p(1:nloc) = parts%p(lo:hi)
-    parts%m(1:nloc) = parts%m(lo:hi)
-    parts%id(1:nloc) = parts%id(lo:hi)
-    parts%n = nloc
+    call particles_permute(parts, [(k, k = lo, hi)])
+    parts%n = hi - lo + 1
   end subroutine keep_share
 
   function column_names(run, dim) result(names)
