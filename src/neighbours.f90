@@ -1,7 +1,14 @@
-!> Neighbour search: a cell-linked list with cells no smaller than the list
+!> Neighbour search: a cell-linked list with cells the size of the list
 !> radius, used to sort particles by cell (memory locality) and to build a
 !> half (symmetric) Verlet list with a skin, reused until particles have
 !> moved far enough to invalidate it.
+!>
+!> The cells are sparse (cell_set_t): only the occupied ones are stored,
+!> found through a hash table from integer cell coordinates and sorted in
+!> lexicographic (z, y, x) order, with no bounding box.  Memory and time
+!> grow with the number of particles whatever their spread: particles flung
+!> far from the rest (spray, fragmenting free surfaces) cost no more than
+!> the same particles close by, and no spread stops the run.
 module neighbours
   use kinds, only: wp, i8
   implicit none
@@ -23,110 +30,39 @@ module neighbours
     real(wp), allocatable :: x_ref(:, :)  !< owned positions at build, for the skin test
   end type neighbour_list_t
 
-  !> A grid of cubic cells with one empty layer of padding on each side, so
-  !> that a stencil around any occupied cell stays inside the grid.  Cell
-  !> (0-based) coordinate along an axis: 1 + int((x - lo)/size), lo the
-  !> cloud's minimum (the padding is added in integers, free of round-off).
-  type :: cell_grid_t
-    real(wp) :: lo(3) = 0, size = 1
-    integer(i8) :: shift(3) = 0          !< global coordinate of local cell 1 (global grids)
-    integer :: nc(3) = 1
-    integer :: n_stencil = 0
-    integer, allocatable :: stencil(:)   !< linear offsets of the 3^dim cells around a cell
-  end type cell_grid_t
+  !> The occupied cells of a grid of cubic cells of side `size` aligned on
+  !> `origin`: the particle at x lies in the cell of integer coordinates
+  !> floor((x - origin)/size) (0 along the unused axis in 2D), whatever rank
+  !> holds it.  Cells are numbered 1..n_cells in lexicographic (z, y, x)
+  !> order of their coordinates; cell n_cells + 1 is an empty cell that
+  !> stands for every unoccupied one.
+  type :: cell_set_t
+    integer :: n_cells = 0
+    integer(i8), allocatable :: c(:, :)   !< (3, n_cells) cell coordinates
+    integer, allocatable :: cell(:)       !< (ntot) the cell of each particle
+    !> (n_cells + 2) the particles of cell k are order(cstart(k):cstart(k+1)-1)
+    integer, allocatable :: cstart(:)
+    integer, allocatable :: order(:)      !< (ntot) by cell, by index within a cell
+    !> the 3^dim cells around a cell that come after it in lexicographic
+    !> order ((3^dim - 1)/2 of them), in that order; n_cells + 1 if empty
+    integer :: n_after = 0
+    integer, allocatable :: after(:, :)   !< (n_after, n_cells)
+  end type cell_set_t
 
 contains
 
-  !> A grid covering x(:, 1:ntot) with cells of at least `cell_size`; the
-  !> cells grow when a scattered cloud would need too many of them.
-  function make_grid(dim, ntot, x, cell_size) result(g)
-    integer, intent(in) :: dim, ntot
-    real(wp), intent(in) :: x(3, ntot), cell_size
-    type(cell_grid_t) :: g
-    real(wp) :: lo(3), hi(3)
-    integer(i8) :: ncell
-    integer :: a, dx, dy, dz, k, zr
-    lo = 0; hi = 0
-    if (ntot > 0) then
-      lo = minval(x(:, 1:ntot), dim=2)
-      hi = maxval(x(:, 1:ntot), dim=2)
-    end if
-    g%size = cell_size
-    do
-      g%nc = 1
-      do a = 1, dim
-        g%nc(a) = int((hi(a) - lo(a)) / g%size) + 3
-      end do
-      ncell = product(int(g%nc, i8))
-      if (ncell <= max(8_i8 * ntot, 4096_i8)) exit
-      g%size = g%size * 1.25_wp
-    end do
-    g%lo = lo
-    zr = merge(1, 0, dim == 3)
-    g%n_stencil = 3**dim
-    allocate(g%stencil(g%n_stencil))
-    k = 0
-    do dz = -zr, zr
-      do dy = -1, 1
-        do dx = -1, 1
-          k = k + 1
-          g%stencil(k) = dx + g%nc(1) * (dy + g%nc(2) * dz)
-        end do
-      end do
-    end do
-  end function make_grid
-
-  pure integer function cell_of(g, x) result(c)
-    type(cell_grid_t), intent(in) :: g
-    real(wp), intent(in) :: x(3)
-    integer :: i(3)
-    i = 1 + int(int((x - g%lo) / g%size, i8) - g%shift)
-    if (g%nc(3) == 1) i(3) = 0   ! 2D: a single layer
-    c = 1 + i(1) + g%nc(1) * (i(2) + g%nc(2) * i(3))
-  end function cell_of
-
-  !> Counting sort of particles 1..ntot by cell: order(cstart(c):cstart(c+1)-1)
-  !> are the particles in cell c, in increasing index.
-  subroutine bin_particles(g, ntot, x, cell, cstart, order)
-    type(cell_grid_t), intent(in) :: g
-    integer, intent(in) :: ntot
-    real(wp), intent(in) :: x(3, ntot)
-    integer, allocatable, intent(out) :: cell(:), cstart(:), order(:)
-    integer :: i, c, ncell
-    ncell = product(g%nc)
-    allocate(cell(ntot), cstart(ncell + 1), order(ntot))
-    cstart = 0
-    do i = 1, ntot
-      c = cell_of(g, x(:, i))
-      cell(i) = c
-      cstart(c + 1) = cstart(c + 1) + 1
-    end do
-    cstart(1) = 1
-    do c = 1, ncell
-      cstart(c + 1) = cstart(c + 1) + cstart(c)
-    end do
-    do i = 1, ntot      ! cstart(c) runs ahead while filling, then is restored
-      c = cell(i)
-      order(cstart(c)) = i
-      cstart(c) = cstart(c) + 1
-    end do
-    do c = ncell, 1, -1
-      cstart(c + 1) = cstart(c)
-    end do
-    cstart(1) = 1
-  end subroutine bin_particles
-
   !> The permutation that sorts particles 1..n by cell of size cell_size
-  !> (new slot k holds old particle perm(k)).
+  !> (new slot k holds old particle perm(k)), cells in lexicographic order.
   subroutine cell_sort_permutation(dim, n, x, cell_size, perm)
     integer, intent(in) :: dim, n
     real(wp), intent(in) :: x(3, n), cell_size
     integer, intent(out) :: perm(n)
-    type(cell_grid_t) :: g
-    integer, allocatable :: cell(:), cstart(:), order(:)
-    g = make_grid(dim, n, x, cell_size)
-    call bin_particles(g, n, x, cell, cstart, order)
-    perm = order
+    type(cell_set_t) :: cs
+    real(wp) :: lo(3)
+    lo = 0
+    if (n > 0) lo = minval(x, dim=2)
+    call bin_cells(dim, n, x, cell_size, lo, cs)
+    perm = cs%order
   end subroutine cell_sort_permutation
 
   !> Builds the half list in canonical order.  The canonical order of the
@@ -141,25 +77,25 @@ contains
   !> then receives its contributions in the same order whatever the number of
   !> ranks: first from the partners before it, in canonical order, then its
   !> own row.  So the sums are bitwise independent of the decomposition.
+  !> The origin must be the same on every rank; nothing else is required of
+  !> it (cells are only stored where particles are).
   subroutine neighbour_build(nl, dim, n, ntot, x, id, radius, origin)
     type(neighbour_list_t), intent(inout) :: nl
     integer, intent(in) :: dim, n, ntot
     real(wp), intent(in) :: x(3, ntot), radius, origin(3)
     integer(i8), intent(in) :: id(ntot)
-    type(cell_grid_t) :: g
-    integer, allocatable :: cell(:), cstart(:), order(:), tmp(:)
+    type(cell_set_t) :: cs
+    integer, allocatable :: tmp(:)
     integer(i8) :: np, cap, row_max
-    integer :: a, b, s, c, k, kk, mid
+    integer :: a, b, s, c, ca, k, kk
     logical :: a_owned
     real(wp) :: r2max, d(3), xa(3)
     nl%radius = radius
     nl%n = n
     nl%n_rows = ntot
     r2max = radius**2
-    g = make_global_grid(dim, ntot, x, radius, origin)
-    call bin_particles(g, ntot, x, cell, cstart, order)
-    call sort_cells_by_id(cstart, order, id)
-    mid = (g%n_stencil + 1) / 2      ! the cell itself
+    call bin_cells(dim, ntot, x, radius, origin, cs)
+    call sort_cells_by_id(cs%cstart(1:cs%n_cells + 1), cs%order, id)
     if (allocated(nl%start)) deallocate(nl%start, nl%row)
     allocate(nl%start(ntot + 1), nl%row(ntot))
     cap = max(nl%n_pairs + nl%n_pairs / 4, 16_i8 * ntot, 64_i8)
@@ -169,17 +105,18 @@ contains
     if (.not. allocated(nl%nbr)) allocate(nl%nbr(cap))
     np = 0
     do kk = 1, ntot
-      a = order(kk)
+      a = cs%order(kk)
       nl%row(kk) = a
       nl%start(kk) = np + 1
       a_owned = a <= n
       xa = x(:, a)
+      ca = cs%cell(a)
       ! room for every candidate of this row (the branchless compaction
       ! writes one slot past the last pair)
-      row_max = 1
-      do s = mid, g%n_stencil
-        c = cell(a) + g%stencil(s)
-        row_max = row_max + cstart(c + 1) - cstart(c)
+      row_max = 1 + cs%cstart(ca + 1) - cs%cstart(ca)
+      do s = 1, cs%n_after
+        c = cs%after(s, ca)
+        row_max = row_max + cs%cstart(c + 1) - cs%cstart(c)
       end do
       if (np + row_max > size(nl%nbr, kind=i8)) then
         allocate(tmp(max(size(nl%nbr, kind=i8) * 3 / 2, np + row_max)))
@@ -188,17 +125,16 @@ contains
       end if
       ! the rest of its own cell (after it in id order), then the cells
       ! after it; branchless, as the in-range test is too random to predict
-      c = cell(a)
-      do k = kk + 1, cstart(c + 1) - 1
-        b = order(k)
+      do k = kk + 1, cs%cstart(ca + 1) - 1
+        b = cs%order(k)
         d = xa - x(:, b)
         nl%nbr(np + 1) = b
         np = np + merge(1, 0, d(1)**2 + d(2)**2 + d(3)**2 < r2max .and. (a_owned .or. b <= n))
       end do
-      do s = mid + 1, g%n_stencil
-        c = cell(a) + g%stencil(s)
-        do k = cstart(c), cstart(c + 1) - 1
-          b = order(k)
+      do s = 1, cs%n_after
+        c = cs%after(s, ca)
+        do k = cs%cstart(c), cs%cstart(c + 1) - 1
+          b = cs%order(k)
           d = xa - x(:, b)
           nl%nbr(np + 1) = b
           np = np + merge(1, 0, d(1)**2 + d(2)**2 + d(3)**2 < r2max .and. (a_owned .or. b <= n))
@@ -214,55 +150,207 @@ contains
     nl%x_ref(:, 1:n) = x(:, 1:n)
   end subroutine neighbour_build
 
-  !> A grid of cells of size `size` aligned on `origin` (shared by all ranks:
-  !> a particle's cell coordinates floor((x - origin)/size) are then the
-  !> same wherever it is held), covering this rank's particles with a layer
-  !> of padding.  origin must lie below every particle of every rank.
-  function make_global_grid(dim, ntot, x, size, origin) result(g)
+  !> Bins particles 1..ntot on the occupied cells of side `size` aligned on
+  !> `origin` (cell_set_t), in O(ntot) expected time plus the sort of the
+  !> cells, which are far fewer than the particles:
+  !> 1. the distinct cells in order of first appearance, found through an
+  !>    open-addressing hash table (linear probing, at most half full) from
+  !>    coordinates to cell; consecutive particles, sorted by cell in memory,
+  !>    mostly share a cell and skip the table;
+  !> 2. the cells sorted lexicographically (z, y, x);
+  !> 3. the particles counting-sorted by cell (by index within a cell);
+  !> 4. for each cell, the stencil cells after it, looked up in the table.
+  subroutine bin_cells(dim, ntot, x, size, origin, cs)
     integer, intent(in) :: dim, ntot
     real(wp), intent(in) :: x(3, ntot), size, origin(3)
-    type(cell_grid_t) :: g
-    integer :: a, dx, dy, dz, k, zr, i
-    integer(i8) :: cmin(3), cmax(3), ci
-    cmin = 0; cmax = 0
-    do a = 1, dim
-      if (ntot > 0) then
-        cmin(a) = huge(1_i8); cmax(a) = -huge(1_i8)
-        do i = 1, ntot
-          ci = int((x(a, i) - origin(a)) / size, i8)
-          cmin(a) = min(cmin(a), ci)
-          cmax(a) = max(cmax(a), ci)
-        end do
+    type(cell_set_t), intent(out) :: cs
+    integer, allocatable :: table(:), first(:), perm(:), rank(:)
+    integer(i8), allocatable :: cc(:, :)
+    integer(i8) :: ci(3), c_last(3), off(3, 13)
+    integer :: i, k, m, u, s, dx, dy, dz, zr, bits
+    ! 1. distinct cells (cc(:, 1:m)); first(i) is particle i's among them
+    bits = 10
+    allocate(table(0:2**bits - 1), cc(3, 2**(bits - 1)), first(ntot))
+    table = 0
+    m = 0
+    u = 0
+    c_last = 0
+    do i = 1, ntot
+      ci = cell_coords(dim, x(:, i), size, origin)
+      if (u == 0 .or. any(ci /= c_last)) then
+        call locate(ci, .true., u)
+        c_last = ci
       end if
+      first(i) = u
     end do
-    g%size = size
-    g%nc = 1
-    do a = 1, dim
-      g%nc(a) = int(cmax(a) - cmin(a)) + 3
+    ! 2. cell perm(k) of first appearance is cell k in lexicographic order
+    allocate(perm(m), rank(m))
+    call sort_lexicographic(m, cc, perm)
+    rank(perm) = [(k, k = 1, m)]
+    cs%n_cells = m
+    cs%c = cc(:, perm)
+    ! 3. counting sort; cstart(k) runs ahead while filling, then is restored
+    allocate(cs%cell(ntot), cs%cstart(m + 2), cs%order(ntot))
+    cs%cstart = 0
+    do i = 1, ntot
+      k = rank(first(i))
+      cs%cell(i) = k
+      cs%cstart(k + 1) = cs%cstart(k + 1) + 1
     end do
-    ! cell_of computes 1 + int((x - lo)/size): with lo one cell below the
-    ! lowest occupied cell, that is the global cell coordinate shifted by a
-    ! whole number of cells, so the padding stays exact
-    g%lo = origin
-    g%shift = 0
-    do a = 1, dim
-      g%shift(a) = cmin(a)
+    cs%cstart(1) = 1
+    do k = 1, m + 1
+      cs%cstart(k + 1) = cs%cstart(k + 1) + cs%cstart(k)
     end do
-    if (product(int(g%nc, i8)) > max(64_i8 * ntot, 4096_i8)) &
-      error stop 'make_global_grid: the particles are spread over too many cells'
+    do i = 1, ntot
+      k = cs%cell(i)
+      cs%order(cs%cstart(k)) = i
+      cs%cstart(k) = cs%cstart(k) + 1
+    end do
+    do k = m, 1, -1
+      cs%cstart(k + 1) = cs%cstart(k)
+    end do
+    cs%cstart(1) = 1
+    ! 4. the stencil offsets after (0, 0, 0) in lexicographic (z, y, x) order
     zr = merge(1, 0, dim == 3)
-    g%n_stencil = 3**dim
-    allocate(g%stencil(g%n_stencil))
-    k = 0
-    do dz = -zr, zr
+    cs%n_after = (3**dim - 1) / 2
+    s = 0
+    do dz = 0, zr
       do dy = -1, 1
         do dx = -1, 1
-          k = k + 1
-          g%stencil(k) = dx + g%nc(1) * (dy + g%nc(2) * dz)
+          if (dz == 0 .and. (dy < 0 .or. (dy == 0 .and. dx <= 0))) cycle
+          s = s + 1
+          off(:, s) = [dx, dy, dz]
         end do
       end do
     end do
-  end function make_global_grid
+    allocate(cs%after(cs%n_after, m))
+    do k = 1, m
+      do s = 1, cs%n_after
+        call locate(cs%c(:, k) + off(:, s), .false., u)
+        cs%after(s, k) = m + 1
+        if (u > 0) cs%after(s, k) = rank(u)
+      end do
+    end do
+
+  contains
+
+    !> u: the cell of coordinates c in cc(:, 1:m), 0 if absent; added when
+    !> `insert`, and the table doubled when more than half full.
+    subroutine locate(c, insert, u)
+      integer(i8), intent(in) :: c(3)
+      logical, intent(in) :: insert
+      integer, intent(out) :: u
+      integer, allocatable :: grown(:)
+      integer(i8), allocatable :: cc_grown(:, :)
+      integer :: h, j
+      h = hash_slot(c, bits)
+      do
+        u = table(h)
+        if (u == 0) exit
+        if (all(cc(:, u) == c)) return
+        h = iand(h + 1, 2**bits - 1)
+      end do
+      if (.not. insert) return
+      m = m + 1
+      if (m > ubound(cc, 2)) then
+        allocate(cc_grown(3, 2 * m))
+        cc_grown(:, 1:m - 1) = cc(:, 1:m - 1)
+        call move_alloc(cc_grown, cc)
+      end if
+      cc(:, m) = c
+      table(h) = m
+      u = m
+      if (2 * m <= 2**bits) return
+      bits = bits + 1
+      allocate(grown(0:2**bits - 1))
+      grown = 0
+      do j = 1, m
+        h = hash_slot(cc(:, j), bits)
+        do while (grown(h) /= 0)
+          h = iand(h + 1, 2**bits - 1)
+        end do
+        grown(h) = j
+      end do
+      call move_alloc(grown, table)
+    end subroutine locate
+
+  end subroutine bin_cells
+
+  !> Integer coordinates of the cell of side `size` aligned on `origin`
+  !> holding x: floor((x - origin)/size) along the first dim axes, 0 along
+  !> the others.  Bounded by 2^60 in magnitude, so that neighbouring cells
+  !> (+-1) and the hash stay free of integer overflow even for absurd
+  !> positions.
+  pure function cell_coords(dim, x, size, origin) result(c)
+    integer, intent(in) :: dim
+    real(wp), intent(in) :: x(3), size, origin(3)
+    integer(i8) :: c(3)
+    real(wp), parameter :: BOUND = 2.0_wp**60
+    integer :: a
+    c = 0
+    do a = 1, dim
+      c(a) = floor(max(-BOUND, min(BOUND, (x(a) - origin(a)) / size)), i8)
+    end do
+  end function cell_coords
+
+  !> Slot in a table of 2^bits (bits <= 31) for cell coordinates c:
+  !> Fibonacci hashing modulo 2^31, h = (K . c) mod 2^31 with multipliers
+  !> 2^31 times the fractional parts of the golden ratio, sqrt 2 and sqrt 3,
+  !> keeping the top `bits` bits.  Coordinates are taken modulo 2^30, so
+  !> every product stays below 2^61 and the sum below 2^63.
+  pure integer function hash_slot(c, bits) result(h)
+    integer(i8), intent(in) :: c(3)
+    integer, intent(in) :: bits
+    integer(i8), parameter :: K(3) = [1327217885_i8, 889516853_i8, 1572067139_i8]
+    integer(i8), parameter :: MASK30 = 2_i8**30 - 1, MASK31 = 2_i8**31 - 1
+    h = int(ishft(iand(sum(iand(c, MASK30) * K), MASK31), -(31 - bits)))
+  end function hash_slot
+
+  !> perm: 1..m ordered by the lexicographic (z, y, x) order of cc(:, 1:m)
+  !> (bottom-up merge sort; the coordinates are all distinct).
+  subroutine sort_lexicographic(m, cc, perm)
+    integer, intent(in) :: m
+    integer(i8), intent(in) :: cc(:, :)
+    integer, intent(out) :: perm(m)
+    integer, allocatable :: merged(:)
+    integer :: width, lo, mid, hi, i, j, k
+    perm = [(k, k = 1, m)]
+    allocate(merged(m))
+    width = 1
+    do while (width < m)
+      do lo = 1, m, 2 * width
+        mid = min(lo + width, m + 1)      ! runs lo..mid-1 and mid..hi-1
+        hi = min(lo + 2 * width, m + 1)
+        i = lo
+        j = mid
+        do k = lo, hi - 1
+          if (j >= hi) then
+            merged(k) = perm(i); i = i + 1
+          else if (i >= mid) then
+            merged(k) = perm(j); j = j + 1
+          else if (precedes(cc(:, perm(j)), cc(:, perm(i)))) then
+            merged(k) = perm(j); j = j + 1
+          else
+            merged(k) = perm(i); i = i + 1
+          end if
+        end do
+      end do
+      perm = merged
+      width = 2 * width
+    end do
+  end subroutine sort_lexicographic
+
+  !> Cell coordinates p before q in lexicographic (z, y, x) order.
+  pure logical function precedes(p, q)
+    integer(i8), intent(in) :: p(3), q(3)
+    if (p(3) /= q(3)) then
+      precedes = p(3) < q(3)
+    else if (p(2) /= q(2)) then
+      precedes = p(2) < q(2)
+    else
+      precedes = p(1) < q(1)
+    end if
+  end function precedes
 
   !> Within each cell, orders the particles by ascending global id
   !> (insertion sort: cells hold tens of particles, mostly in order already).
