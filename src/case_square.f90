@@ -32,7 +32,7 @@ module case_square
                             poisson_square_eval, POISSON_DEFAULT_N
   use diagnostics, only: probe_pressure, kinetic_energy, total_momentum
   use flow_diagnostics, only: angular_momentum, gather_by_id, symmetry_error, topology_t, &
-                              fluid_topology, vorticity_2d
+                              fluid_topology, vorticity_2d, free_surface_lambda
   use spectrum, only: dominant_frequency
   use parallel_env, only: parallel_env_t
   use, intrinsic :: ieee_arithmetic, only: ieee_is_nan
@@ -299,9 +299,10 @@ contains
   end subroutine record
 
   !> Snapshot fields: `vorticity`, the SPH curl of the velocity
-  !> (flow_diagnostics: vorticity_2d), and `vorticity_initial`, the
+  !> (flow_diagnostics: vorticity_2d), `vorticity_initial`, the
   !> vorticity each particle started with, which an inviscid 2D flow keeps
-  !> (-2 omega for the rotating square).  Attribute time_scaled: t omega
+  !> (-2 omega for the rotating square), and `free_surface_lambda`, the
+  !> free-surface indicator (E9: below 0.55 on the free surface).  Attribute time_scaled: t omega
   !> (rotation) or t V0/L (vortical); rotation also p_centre_initial,
   !> kinetic_energy_ref.
   subroutine square_fields(self, t, parts, f)
@@ -311,11 +312,14 @@ contains
     type(case_fields_t), intent(out) :: f
     integer :: n
     n = parts%n
-    f%scalar_names = [character(len=32) :: 'vorticity', 'vorticity_initial']
-    allocate(f%vector_names(0), f%vectors(3, n, 0), f%scalars(n, 2))
+    f%scalar_names = [character(len=32) :: 'vorticity', 'vorticity_initial', &
+                      'free_surface_lambda']
+    allocate(f%vector_names(0), f%vectors(3, n, 0), f%scalars(n, 3))
     ! halo copies (n+1 .. n+n_halo), when present, serve as neighbours
     call vorticity_2d(self%kernel, n, n + parts%n_halo, parts%x, parts%u, parts%m, parts%rho, &
                       f%scalars(:, 1))
+    call free_surface_lambda(self%kernel, 2, n, n + parts%n_halo, parts%x, parts%m, parts%rho, &
+                             f%scalars(:, 3))
     if (self%kind == SQ_ROTATION) then
       f%scalars(:, 2) = -2 * self%rate
       f%attr_names = [character(len=32) :: 'time_scaled', 'p_centre_initial', &

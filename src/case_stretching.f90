@@ -9,7 +9,9 @@ module case_stretching
   use kinds, only: wp
   use case_base, only: case_t, case_fields_t
   use config, only: config_t
-  use kernels, only: kernel_t
+  use kernels, only: kernel_t, kernel_init, KERNEL_WENDLAND_C2, KERNEL_CUBIC_SPLINE, &
+                     KERNEL_GAUSSIAN
+  use flow_diagnostics, only: free_surface_lambda
   use particles, only: particles_t, particles_allocate
   use placement, only: place_ball, ball_spacing
   use eos, only: eos_t, eos_density
@@ -30,6 +32,7 @@ module case_stretching
     real(wp) :: rates(3) = 0            !< alpha_k(0) / A0
     real(wp) :: p0 = 0                  !< P(0), exact centre pressure at t = 0
     type(ellipse_exact_t) :: ex
+    type(kernel_t) :: kernel            !< for the free-surface indicator in snapshots
     ! running sums over samples (for the paper's time-averaged errors)
     integer :: n_samples = 0
     real(wp) :: sum_axis_err = 0, sum_pos_err = 0, sum_vel_err = 0, sum_p_err = 0
@@ -57,7 +60,7 @@ contains
     real(wp), intent(out) :: dx
     real(wp), allocatable :: x(:, :), vol(:)
     real(wp) :: p
-    integer :: i, np, place
+    integer :: i, np, place, kind
     place = merge(PLACE_LATTICE, PLACE_RINGS, cfg%particles%placement == 'lattice')
     self%rho0 = cfg%physics%rho0
     self%rates = 0
@@ -92,6 +95,15 @@ contains
       parts%id(i) = i
     end do
     end associate
+    select case (cfg%numerics%kernel)
+    case ('cubic_spline')
+      kind = KERNEL_CUBIC_SPLINE
+    case ('gaussian')
+      kind = KERNEL_GAUSSIAN
+    case default
+      kind = KERNEL_WENDLAND_C2
+    end select
+    self%kernel = kernel_init(kind, self%dim, cfg%particles%h_over_dx * dx)
   end subroutine stretching_setup
 
   !> Time-series columns this case adds after the generic ones.
@@ -169,8 +181,9 @@ contains
   end subroutine stretching_sample
 
   !> Extra snapshot fields: exact Lagrangian positions, the exact velocity
-  !> and pressure at each particle's position; the exact semi-axes and
-  !> centre pressure as attributes.
+  !> and pressure at each particle's position, the free-surface indicator
+  !> `free_surface_lambda` (E9); the exact semi-axes and centre pressure as
+  !> attributes.
   subroutine stretching_fields(self, t, parts, f)
     class(stretching_t), intent(inout) :: self
     real(wp), intent(in) :: t
@@ -180,13 +193,16 @@ contains
     n = parts%n
     call ellipse_exact_at(self%ex, t)
     f%vector_names = [character(len=32) :: 'position_exact', 'velocity_exact']
-    f%scalar_names = [character(len=32) :: 'pressure_exact']
-    allocate(f%vectors(3, n, 2), f%scalars(n, 1))
+    f%scalar_names = [character(len=32) :: 'pressure_exact', 'free_surface_lambda']
+    allocate(f%vectors(3, n, 2), f%scalars(n, 2))
     do i = 1, n
       f%vectors(:, i, 1) = ellipse_map(self%ex, parts%x0(:, i))
       f%vectors(:, i, 2) = ellipse_velocity(self%ex, parts%x(:, i))
       f%scalars(i, 1) = ellipse_pressure(self%ex, parts%x(:, i))
     end do
+    ! (E9) the halo copies, when present, serve as neighbours
+    call free_surface_lambda(self%kernel, self%dim, n, n + parts%n_halo, parts%x, parts%m, &
+                             parts%rho, f%scalars(:, 2))
     f%attr_names = [character(len=32) :: 'semi_axes_exact_1', 'semi_axes_exact_2', &
                     'semi_axes_exact_3', 'p_centre_exact']
     f%attr_values = [self%ex%a, ellipse_centre_pressure(self%ex)]

@@ -52,6 +52,10 @@ module config
     [character(len=NAME_LEN) :: 'delta', 'monaghan', 'none']
   character(len=NAME_LEN), parameter :: DIFFUSIONS(*) = &
     [character(len=NAME_LEN) :: 'molteni', 'antuono', 'none']
+  character(len=NAME_LEN), parameter :: PRESSURE_GRADIENTS(*) = &
+    [character(len=NAME_LEN) :: 'standard', 'higher_order']
+  character(len=NAME_LEN), parameter :: DIVERGENCES(*) = &
+    [character(len=NAME_LEN) :: 'standard', 'renormalised']
   character(len=NAME_LEN), parameter :: DECOMPOSITIONS(*) = &
     [character(len=NAME_LEN) :: 'slab', 'metis']
   character(len=NAME_LEN), parameter :: BALANCES(*) = &
@@ -96,6 +100,10 @@ module config
     logical :: tensile = .false.                         !< (E7) tensile instability control
     real(wp) :: tensile_eps = 0.4_wp                     !< measured best with wendland_c2, h = 2 dx
     integer :: tensile_n = 4
+    !> (E4) or the corrected form of DESIGN.md section 5
+    character(len=NAME_LEN) :: pressure_gradient = 'standard'
+    character(len=NAME_LEN) :: divergence = 'standard'   !< (E1), or renormalised (E3)
+    logical :: shifting = .false.                        !< (E8) particle shifting
   end type numerics_params_t
 
   !> &output: where and what to write.
@@ -185,7 +193,8 @@ module config
   integer, parameter :: HI_NONE = 0, HI_LT = 1, HI_LE = 2
   integer, parameter :: CH_NONE = 0, CH_CASE = 1, CH_PLACEMENT = 2, CH_EOS = 3, &
                         CH_KERNEL = 4, CH_INTEGRATOR = 5, CH_VISCOSITY = 6, CH_DIFFUSION = 7, &
-                        CH_DECOMPOSITION = 8, CH_BALANCE = 9
+                        CH_DECOMPOSITION = 8, CH_BALANCE = 9, CH_PRESSURE_GRADIENT = 10, &
+                        CH_DIVERGENCE = 11
   integer, parameter :: SCALAR(2) = [0, 0]
 
   !> A variable of a group: the one place that says what it is and what is
@@ -261,6 +270,15 @@ module config
           '', 'tensile control strength: R_i = tensile_eps |p_i|/rho_i^2 where p_i < 0'), &
     var_t(G_NUMERICS, 'tensile_n', T_INT, SCALAR, LO_GE, HI_LE, 1.0_wp, 8.0_wp, CH_NONE, &
           '', 'tensile control exponent n of (W_ij/W(dx))^n'), &
+    var_t(G_NUMERICS, 'pressure_gradient', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, &
+          0.0_wp, CH_PRESSURE_GRADIENT, '', 'standard: the (p_i + p_j) form; higher_order: ' // &
+          'the renormalised (p_j - p_i) form away from the free surface'), &
+    var_t(G_NUMERICS, 'divergence', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
+          CH_DIVERGENCE, '', 'velocity divergence of the continuity equation: standard, ' // &
+          'or renormalised (exact for linear u)'), &
+    var_t(G_NUMERICS, 'shifting', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
+          CH_NONE, '', 'particle shifting after each step (delta-plus-SPH, Sun et al. ' // &
+          '2017), none on the free surface'), &
     var_t(G_OUTPUT, 'dir', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
           'a non-empty path of at most 255 characters', 'run directory'), &
     var_t(G_OUTPUT, 'dt', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
@@ -993,11 +1011,13 @@ contains
     integer, intent(out) :: ios
     character(len=*), intent(inout) :: iomsg
     character(len=NAME_LEN) :: kernel, integrator, viscosity, diffusion
+    character(len=NAME_LEN) :: pressure_gradient, divergence
     real(wp) :: cfl, cfl_force, cfl_visc, alpha, delta, skin, tensile_eps
-    logical :: tensile
+    logical :: tensile, shifting
     integer :: tensile_n
     namelist /numerics/ kernel, integrator, cfl, cfl_force, cfl_visc, viscosity, alpha, &
-                        diffusion, delta, skin, tensile, tensile_eps, tensile_n
+                        diffusion, delta, skin, tensile, tensile_eps, tensile_n, &
+                        pressure_gradient, divergence, shifting
     kernel = p%kernel
     integrator = p%integrator
     cfl = p%cfl
@@ -1011,6 +1031,9 @@ contains
     tensile = p%tensile
     tensile_eps = p%tensile_eps
     tensile_n = p%tensile_n
+    pressure_gradient = p%pressure_gradient
+    divergence = p%divergence
+    shifting = p%shifting
     read(text, nml=numerics, iostat=ios, iomsg=iomsg)
     if (ios /= 0) return
     p%kernel = kernel
@@ -1026,6 +1049,9 @@ contains
     p%tensile = tensile
     p%tensile_eps = tensile_eps
     p%tensile_n = tensile_n
+    p%pressure_gradient = pressure_gradient
+    p%divergence = divergence
+    p%shifting = shifting
   end subroutine read_numerics
 
   subroutine read_output(text, p, ios, iomsg)
@@ -1151,6 +1177,8 @@ contains
     c%numerics%integrator = lower(adjustl(c%numerics%integrator))
     c%numerics%viscosity = lower(adjustl(c%numerics%viscosity))
     c%numerics%diffusion = lower(adjustl(c%numerics%diffusion))
+    c%numerics%pressure_gradient = lower(adjustl(c%numerics%pressure_gradient))
+    c%numerics%divergence = lower(adjustl(c%numerics%divergence))
   end subroutine normalise_words
 
   !> Every value on its own (ranges and lists from VARS), then the rules
@@ -1421,6 +1449,13 @@ contains
       x = c%numerics%tensile_eps
     case ('numerics.tensile_n')
       x = real(c%numerics%tensile_n, wp)
+    case ('numerics.pressure_gradient')
+      text = quoted(c%numerics%pressure_gradient)
+    case ('numerics.divergence')
+      text = quoted(c%numerics%divergence)
+    case ('numerics.shifting')
+      text = merge('.true. ', '.false.', c%numerics%shifting)
+      text = trim(text)
     case ('output.dir')
       text = quoted(c%output%dir)
     case ('output.dt')
@@ -1706,6 +1741,10 @@ contains
       list = DECOMPOSITIONS
     case (CH_BALANCE)
       list = BALANCES
+    case (CH_PRESSURE_GRADIENT)
+      list = PRESSURE_GRADIENTS
+    case (CH_DIVERGENCE)
+      list = DIVERGENCES
     case default
       allocate(list(0))
     end select

@@ -1,16 +1,18 @@
 !> Diagnostics of the free-surface patches beyond the global sums of
 !> `diagnostics` (DESIGN.md section 6): angular momentum, the positions of
 !> all particles by global id (for symmetry checks), the topology of the
-!> fluid region (components and holes), and the SPH vorticity.
+!> fluid region (components and holes), the SPH vorticity and the
+!> free-surface indicator.
 module flow_diagnostics
   use kinds, only: wp, i8
   use particles, only: particles_t
   use kernels, only: kernel_t, kernel_f
+  use fluid_rhs, only: sym_min_eigenvalue
   use parallel_env, only: parallel_env_t, par_sum, par_sum_array
   implicit none
   private
   public :: angular_momentum, gather_by_id, symmetry_error, topology_t, fluid_topology, &
-            vorticity_2d
+            vorticity_2d, free_surface_lambda
   public :: RASTER_CELL, FLUID_RADIUS, MIN_HOLE_AREA
 
   !> Rasterisation of the fluid region (fluid_topology), in units of the
@@ -318,5 +320,78 @@ contains
     end function cell_index
 
   end subroutine vorticity_2d
+
+  !> (E9) The free-surface indicator of Marrone et al. (2010) for the n owned
+  !> particles: lambda_i, the smallest eigenvalue of
+  !>   M_i = Sum_j V_j grad_i W_ij (x_j - x_i)^T
+  !> (the matrix whose inverse renormalises gradients, E3), about 1 inside
+  !> the fluid, 0.5 on a flat free surface, 0 for an isolated particle;
+  !> the solver treats lambda < 0.55 as free surface and 0.55 <= lambda <
+  !> 0.9 as near it (fluid_rhs: LAMBDA_SURFACE, LAMBDA_NEAR).  The halo
+  !> copies n+1..ntot, when present, serve as neighbours.  Its own cell
+  !> search, in memory order: equal to the solver's lambda to round-off.
+  subroutine free_surface_lambda(kernel, dim, n, ntot, x, m, rho, lambda)
+    type(kernel_t), intent(in) :: kernel
+    integer, intent(in) :: dim, n, ntot
+    real(wp), intent(in) :: x(:, :), m(:), rho(:)
+    real(wp), intent(out) :: lambda(n)
+    integer, allocatable :: head(:), next(:)
+    real(wp) :: lo(3), s, s2, xij(3), r2, f, mm(6)
+    integer :: nc(3), c(3), i, j, a1, b1, c1
+    s2 = kernel%support**2
+    if (ntot < 1) return
+    lo = 0
+    lo(1:dim) = minval(x(1:dim, 1:ntot), dim=2)
+    ! cells of at least the support, larger when a scattered cloud would
+    ! need many more cells than particles
+    s = kernel%support
+    do
+      nc = 1
+      nc(1:dim) = int((maxval(x(1:dim, 1:ntot), dim=2) - lo(1:dim)) / s) + 1
+      if (product(real(nc, wp)) <= 8.0_wp * ntot + 4096) exit
+      s = 1.25_wp * s
+    end do
+    allocate(head(product(nc)), next(ntot))
+    head = 0
+    do j = ntot, 1, -1
+      c = cell_of(x(:, j))
+      next(j) = head(c(1) + nc(1) * (c(2) - 1 + nc(2) * (c(3) - 1)))
+      head(c(1) + nc(1) * (c(2) - 1 + nc(2) * (c(3) - 1))) = j
+    end do
+    do i = 1, n
+      mm = 0
+      c = cell_of(x(:, i))
+      do c1 = max(1, c(3) - 1), min(nc(3), c(3) + 1)
+        do b1 = max(1, c(2) - 1), min(nc(2), c(2) + 1)
+          do a1 = max(1, c(1) - 1), min(nc(1), c(1) + 1)
+            j = head(a1 + nc(1) * (b1 - 1 + nc(2) * (c1 - 1)))
+            do while (j > 0)
+              xij = 0
+              xij(1:dim) = x(1:dim, i) - x(1:dim, j)
+              r2 = sum(xij**2)
+              if (j /= i .and. r2 < s2) then
+                f = kernel_f(kernel, sqrt(r2))
+                ! V_j g (x_j - x_i)^T = -V_j F x_ij x_ij^T, as (xx, yy, zz, xy, xz, yz)
+                mm = mm - m(j) / rho(j) * f * [xij(1)**2, xij(2)**2, xij(3)**2, &
+                                               xij(1) * xij(2), xij(1) * xij(3), xij(2) * xij(3)]
+              end if
+              j = next(j)
+            end do
+          end do
+        end do
+      end do
+      lambda(i) = sym_min_eigenvalue(dim, mm)
+    end do
+
+  contains
+
+    function cell_of(p) result(cc)
+      real(wp), intent(in) :: p(3)
+      integer :: cc(3)
+      cc = 1
+      cc(1:dim) = 1 + int((p(1:dim) - lo(1:dim)) / s)
+    end function cell_of
+
+  end subroutine free_surface_lambda
 
 end module flow_diagnostics

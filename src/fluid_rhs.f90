@@ -14,12 +14,29 @@ module fluid_rhs
   use neighbours, only: neighbour_list_t
   implicit none
   private
-  public :: rhs_params_t, rhs_density_gradient, rhs_evaluate, sym_min_eigenvalue, LAMBDA_MIN
+  public :: rhs_params_t, rhs_density_gradient, rhs_renormalisation, rhs_evaluate, rhs_shift, &
+            sym_min_eigenvalue, LAMBDA_MIN, LAMBDA_SURFACE, LAMBDA_NEAR
   public :: VISC_NONE, VISC_DELTA, VISC_MONAGHAN, DIFF_NONE, DIFF_MOLTENI, DIFF_ANTUONO
+  public :: PGRAD_STANDARD, PGRAD_HIGHER_ORDER, DIV_STANDARD, DIV_RENORMALISED
 
   integer, parameter :: VISC_NONE = 0, VISC_DELTA = 1, VISC_MONAGHAN = 2
   integer, parameter :: DIFF_NONE = 0, DIFF_MOLTENI = 1, DIFF_ANTUONO = 2
+  !> (E4) -(1/rho_i) Sum_j (p_i + p_j) g V_j, or (section 5) the corrected
+  !> -(1/rho_i) L_i Sum_j (p_j - p_i) g V_j with p = 0 on the free surface
+  integer, parameter :: PGRAD_STANDARD = 1, PGRAD_HIGHER_ORDER = 2
+  !> (E1) the velocity divergence Sum_j u_ji . g V_j, or its renormalised
+  !> form Sum_j u_ji . (L_i g) V_j, exact for linear velocity fields
+  integer, parameter :: DIV_STANDARD = 1, DIV_RENORMALISED = 2
   real(wp), parameter :: LAMBDA_MIN = 0.1_wp   !< below it, M_i is not inverted
+  !> (E9) Marrone et al. (2010): lambda_i, the smallest eigenvalue of M_i
+  !> (= L_i^-1), is about 1 inside the fluid, 0.5 on a flat free surface;
+  !> below LAMBDA_SURFACE a particle is on the free surface, below
+  !> LAMBDA_NEAR near it.
+  real(wp), parameter :: LAMBDA_SURFACE = 0.55_wp, LAMBDA_NEAR = 0.9_wp
+  !> (E8) the weight of the anti-clustering term R (W_ij/W(dx))^n of the
+  !> shifting (Sun et al. 2017: R = 0.2, n = 4)
+  real(wp), parameter :: SHIFT_R = 0.2_wp
+  integer, parameter :: SHIFT_N = 4
 
   !> The physical and numerical constants of the right-hand side.
   type :: rhs_params_t
@@ -35,33 +52,61 @@ module fluid_rhs
     real(wp) :: tensile_eps = 0
     integer :: tensile_n = 4
     real(wp) :: tensile_dx = 0
+    !> pressure gradient of the momentum equation: PGRAD_STANDARD (E4) or
+    !> PGRAD_HIGHER_ORDER (section 5, needs rhs_renormalisation first)
+    integer :: pressure_gradient = PGRAD_STANDARD
+    !> velocity divergence of the continuity equation: DIV_STANDARD (E1) or
+    !> DIV_RENORMALISED (needs rhs_renormalisation first)
+    integer :: divergence = DIV_STANDARD
   end type rhs_params_t
 
 contains
 
   !> First pass of delta-SPH with the Antuono correction: the renormalised
-  !> density gradient (E2, E3)
-  !>   G_i = L_i Sum_j (rho_j - rho_i) g V_j,  L_i = M_i^-1,
-  !>   M_i = Sum_j V_j g (x_j - x_i)^T = - Sum_j V_j F x_ij x_ij^T,
-  !> so that G_i is exact for a linear density field.  Where M_i is nearly
-  !> singular (isolated particles, thin filaments: smallest eigenvalue below
-  !> LAMBDA_MIN, against 1 in the bulk and about 0.5 on a flat free surface)
-  !> L_i = I is used instead.
+  !> density gradient (E2, E3) G_i = L_i Sum_j (rho_j - rho_i) g V_j
+  !> (rhs_renormalisation).  Halo values are zero: they come from their
+  !> owners by an exchange.
   subroutine rhs_density_gradient(prm, n, ntot, x, rho, m, nl, grad_rho)
     type(rhs_params_t), intent(in) :: prm
     integer, intent(in) :: n, ntot
     real(wp), intent(in) :: x(3, ntot), rho(ntot), m(ntot)
     type(neighbour_list_t), intent(in) :: nl
     real(wp), intent(out) :: grad_rho(3, ntot)
+    real(wp), allocatable :: lambda(:)
+    allocate(lambda(ntot))
+    call rhs_renormalisation(prm, n, ntot, x, rho, m, nl, lambda, grad_rho=grad_rho)
+  end subroutine rhs_density_gradient
+
+  !> The free-surface indicator (E9) of the n owned particles, and
+  !> optionally the renormalisation matrix (E3) and the renormalised density
+  !> gradient:
+  !>   M_i = Sum_j V_j g (x_j - x_i)^T = - Sum_j V_j F x_ij x_ij^T,
+  !>   lambda_i = smallest eigenvalue of M_i, L_i = M_i^-1,
+  !>   G_i = L_i Sum_j (rho_j - rho_i) g V_j   (E2),
+  !> so that L_i Sum_j (f_j - f_i) g V_j is exact for every linear f.  Where
+  !> M_i is nearly singular (isolated particles, thin filaments: lambda_i
+  !> below LAMBDA_MIN, against 1 in the bulk and about 0.5 on a flat free
+  !> surface) L_i = I is used instead.  lmat holds the symmetric L_i as
+  !> (xx, yy, zz, xy, xz, yz).  Halo slots of lambda, lmat and grad_rho
+  !> are zero: their owners compute them (exchange lambda and G if needed).
+  subroutine rhs_renormalisation(prm, n, ntot, x, rho, m, nl, lambda, lmat, grad_rho)
+    type(rhs_params_t), intent(in) :: prm
+    integer, intent(in) :: n, ntot
+    real(wp), intent(in) :: x(3, ntot), rho(ntot), m(ntot)
+    type(neighbour_list_t), intent(in) :: nl
+    real(wp), intent(out) :: lambda(ntot)
+    real(wp), intent(out), optional :: lmat(6, ntot), grad_rho(3, ntot)
     real(wp), allocatable :: mm(:, :)   ! symmetric M: xx, yy, zz, xy, xz, yz
     real(wp), allocatable :: xl(:, :), r2l(:), fl(:)
     integer, allocatable :: jl(:)
     real(wp) :: xij(3), f, g(3), vi, vj, drho, s2, inv(3, 3), det, xx(6)
     real(wp) :: gi(3), mi(6)
     integer :: i, j, l, nn, kk
+    logical :: with_g
+    with_g = present(grad_rho)
     allocate(mm(6, ntot))
     mm = 0
-    grad_rho = 0
+    if (with_g) grad_rho = 0
     s2 = prm%kernel%support**2
     call pair_buffers(nl, jl, xl, r2l, fl)
     do kk = 1, nl%n_rows
@@ -75,28 +120,36 @@ contains
         j = jl(l)
         xij = xl(:, l)
         f = fl(l)
-        g = f * xij
         vj = m(j) / rho(j)
-        drho = rho(j) - rho(i)
-        ! (rho_j - rho_i) g V_j for i; (rho_i - rho_j)(-g) V_i for j
-        gi = gi + drho * vj * g
-        grad_rho(:, j) = grad_rho(:, j) + drho * vi * g
+        if (with_g) then
+          g = f * xij
+          drho = rho(j) - rho(i)
+          ! (rho_j - rho_i) g V_j for i; (rho_i - rho_j)(-g) V_i for j
+          gi = gi + drho * vj * g
+          grad_rho(:, j) = grad_rho(:, j) + drho * vi * g
+        end if
         ! -F x_ij x_ij^T, the same for i and j
         xx = -f * [xij(1)**2, xij(2)**2, xij(3)**2, &
                    xij(1) * xij(2), xij(1) * xij(3), xij(2) * xij(3)]
         mi = mi + vj * xx
         mm(:, j) = mm(:, j) + vi * xx
       end do
-      grad_rho(:, i) = grad_rho(:, i) + gi
+      if (with_g) grad_rho(:, i) = grad_rho(:, i) + gi
       mm(:, i) = mm(:, i) + mi
     end do
+    lambda = 0
+    if (present(lmat)) lmat = 0
     do i = 1, n
-      if (sym_min_eigenvalue(prm%dim, mm(:, i)) < LAMBDA_MIN) cycle
+      lambda(i) = sym_min_eigenvalue(prm%dim, mm(:, i))
+      if (present(lmat)) lmat(1:prm%dim, i) = 1      ! L = I unless M_i is well conditioned
+      if (lambda(i) < LAMBDA_MIN) cycle
       call invert_sym(prm%dim, mm(:, i), inv, det)
-      grad_rho(:, i) = matmul(inv, grad_rho(:, i))
+      if (present(lmat)) lmat(:, i) = [inv(1, 1), inv(2, 2), inv(3, 3), inv(1, 2), inv(1, 3), &
+                                       inv(2, 3)]
+      if (with_g) grad_rho(:, i) = matmul(inv, grad_rho(:, i))
     end do
-    grad_rho(:, n + 1:ntot) = 0   ! halo values come from their owners (exchange)
-  end subroutine rhs_density_gradient
+    if (with_g) grad_rho(:, n + 1:ntot) = 0   ! halo values come from their owners
+  end subroutine rhs_renormalisation
 
   !> Work arrays for the in-range partners of one particle, sized by the
   !> longest row of the list.
@@ -204,23 +257,47 @@ contains
   !>  (E7) tens_i = -Sum_j m_j (R_i + R_j) (W_ij/W(dx))^n g, R_i = eps |p_i|/rho_i^2
   !>       where p_i < 0, else 0 (Monaghan 2000): a repulsion between
   !>       particles under tension, antisymmetric like the pressure term.
-  !> grad_rho (G) is used only with the Antuono diffusion and must then hold
-  !> valid values for halo copies too.
-  subroutine rhs_evaluate(prm, n, ntot, x, u, rho, m, p, grad_rho, nl, drho, du)
+  !> Section 5, prm%pressure_gradient = PGRAD_HIGHER_ORDER: inside the fluid
+  !> (lambda_i >= LAMBDA_NEAR, E9) the pressure part of (E4) becomes the
+  !> consistent, corrected form
+  !>       -(1/rho_i) L_i Sum_j (p_j - p_i) g V_j,
+  !>   exact for a linear pressure, with p = 0 imposed on the free-surface
+  !>   particles (lambda < LAMBDA_SURFACE).  On and near the free surface
+  !>   (lambda_i < LAMBDA_NEAR) the particle keeps the conservative (E4):
+  !>   there the corrected form, with its truncated kernel and L_i far from
+  !>   I, was measured unstable (doc/numerics.md: the rotating square and
+  !>   the circle blow up by t = 0.5/omega, 0.8/A0, whether L_i is used or
+  !>   not on the surface).  Not conservative.
+  !> prm%divergence = DIV_RENORMALISED: the velocity divergence of (E1) is
+  !>   Sum_j u_ji . (L_i g) V_j, exact for linear velocity fields (the
+  !>   standard sum is not near the free surface, where it makes the density
+  !>   drift).
+  !> The corrected sums, and M_i (E3) with them, follow the canonical row
+  !> order like every other term (e.g. (p_j - p_i) g V_j to i and
+  !> (p_i - p_j)(-g) V_i to j); L_i = M_i^-1 (I where lambda_i < LAMBDA_MIN)
+  !> multiplies them per particle once the sums are complete.  For the
+  !> pressure gradient, lambda must hold the free-surface indicator of the
+  !> owned particles and halo copies (rhs_renormalisation, then the halo
+  !> exchange).  grad_rho (G) is used only with the Antuono diffusion and
+  !> must then hold valid values for halo copies too.
+  subroutine rhs_evaluate(prm, n, ntot, x, u, rho, m, p, grad_rho, nl, drho, du, lambda)
     type(rhs_params_t), intent(in) :: prm
     integer, intent(in) :: n, ntot
     real(wp), intent(in) :: x(3, ntot), u(3, ntot), rho(ntot), m(ntot), p(ntot)
     real(wp), intent(in) :: grad_rho(3, ntot)
     type(neighbour_list_t), intent(in) :: nl
     real(wp), intent(out) :: drho(ntot), du(3, ntot)
+    real(wp), intent(in), optional :: lambda(ntot)
     real(wp) :: xij(3), uji(3), g(3), r2, f, s2, h, eta2
     real(wp) :: div, dterm, a, coef_visc, diff_coef, xu, vi, vj, iri, irj
-    real(wp) :: drho_i, du_i(3), rhoi, pi_
+    real(wp) :: drho_i, du_i(3), rhoi, pi_, dp, gp_i(3), sp_i(3), tu_i(9), gu(9), mi(6), xx(6)
+    real(wp) :: inv(3, 3), det, lam, lt(3, 3)
     real(wp), allocatable :: vol(:), inv_rho(:), xl(:, :), r2l(:), fl(:), rt(:), wl(:)
+    real(wp), allocatable :: pf(:), gp(:, :), sp(:, :), tu(:, :), mm(:, :)
     real(wp) :: inv_wdx
     integer, allocatable :: jl(:)
-    integer :: i, j, l, nn, kk
-    logical :: antuono, tensile
+    integer :: i, j, l, nn, kk, nt
+    logical :: antuono, tensile, corrected, renorm_div, renorm
     h = prm%kernel%h
     s2 = prm%kernel%support**2
     eta2 = 0.01_wp * h**2
@@ -243,6 +320,27 @@ contains
       rt = prm%tensile_eps * max(0.0_wp, -p(1:ntot)) * inv_rho**2
       inv_wdx = 1 / kernel_w(prm%kernel, prm%tensile_dx)
     end if
+    ! (section 5): the pressure with p = 0 on the free surface; the sums
+    ! Sum_j (p_j - p_i) g V_j (gp) and Sum_j (p_i + p_j) g V_j (sp), one of
+    ! which each particle takes.  Renormalised divergence: the sums
+    ! Sum_j V_j g (x) u_ji (tu; nt = dim^2 components, by rows of u).
+    ! Either: M_i (mm, E3).
+    corrected = prm%pressure_gradient == PGRAD_HIGHER_ORDER
+    renorm_div = prm%divergence == DIV_RENORMALISED
+    renorm = corrected .or. renorm_div
+    if (corrected) then
+      if (.not. present(lambda)) error stop 'rhs_evaluate: the higher-order gradient needs lambda'
+      allocate(pf(ntot), gp(3, ntot), sp(3, ntot))
+      pf = merge(0.0_wp, p(1:ntot), lambda(1:ntot) < LAMBDA_SURFACE)
+      gp = 0
+      sp = 0
+    end if
+    ! in 2D only the in-plane components of T: (xx, yx, xy, yy)
+    nt = prm%dim**2
+    allocate(tu(nt, merge(ntot, 0, renorm_div)))   ! no columns when not needed
+    allocate(mm(6, merge(ntot, 0, renorm)))
+    tu = 0
+    mm = 0
     drho = 0
     du = 0
     do kk = 1, nl%n_rows
@@ -256,6 +354,10 @@ contains
       pi_ = p(i)
       drho_i = 0
       du_i = 0
+      gp_i = 0
+      sp_i = 0
+      tu_i = 0
+      mi = 0
       do l = 1, nn
         j = jl(l)
         xij = xl(:, l)
@@ -265,8 +367,26 @@ contains
         vj = vol(j)
         irj = inv_rho(j)
         uji = u(:, j) - u(:, i)
-        ! (E1): u_ji . g is the pair's velocity divergence
+        ! (E1): u_ji . g is the pair's velocity divergence; renormalised,
+        ! g (x) u_ji (the same for i and j) is kept for L_i afterwards
         div = uji(1) * g(1) + uji(2) * g(2) + uji(3) * g(3)
+        if (renorm_div) then
+          if (nt == 4) then
+            gu(1:4) = [g(1:2) * uji(1), g(1:2) * uji(2)]
+          else
+            gu = [g * uji(1), g * uji(2), g * uji(3)]
+          end if
+          tu_i(1:nt) = tu_i(1:nt) + vj * gu(1:nt)
+          tu(:, j) = tu(:, j) + vi * gu(1:nt)
+          div = 0
+        end if
+        if (renorm) then
+          ! (E3) -F x_ij x_ij^T, the same for i and j
+          xx = -f * [xij(1)**2, xij(2)**2, xij(3)**2, &
+                     xij(1) * xij(2), xij(1) * xij(3), xij(2) * xij(3)]
+          mi = mi + vj * xx
+          mm(:, j) = mm(:, j) + vi * xx
+        end if
         ! (E2): (x_j - x_i) . g / r^2 = -F, so the first part of psi . g is
         ! -2 (rho_j - rho_i) F; psi_ji = psi_ij and grad_j W_ji = -g.
         dterm = -2 * (rho(j) - rhoi) * f
@@ -277,7 +397,18 @@ contains
         ! (E4) + (E5): du_i = A V_j/rho_i g, du_j = -A V_i/rho_j g, with
         ! A = -(p_i + p_j) + the viscous term
         xu = -(uji(1) * xij(1) + uji(2) * xij(2) + uji(3) * xij(3))   ! u_ji . (x_j - x_i)
-        a = -(pi_ + p(j))
+        if (corrected) then
+          ! (section 5): (p_j - p_i) g V_j for i, (p_i - p_j)(-g) V_i for j;
+          ! (E4) apart: (p_i + p_j) g V_j for i, (p_i + p_j)(-g) V_i for j
+          dp = pf(j) - pf(i)
+          gp_i = gp_i + (dp * vj) * g
+          gp(:, j) = gp(:, j) + (dp * vi) * g
+          sp_i = sp_i + ((pi_ + p(j)) * vj) * g
+          sp(:, j) = sp(:, j) - ((pi_ + p(j)) * vi) * g
+          a = 0
+        else
+          a = -(pi_ + p(j))
+        end if
         select case (prm%viscosity)
         case (VISC_DELTA)
           a = a + coef_visc * xu / r2
@@ -296,10 +427,123 @@ contains
       ! drho(i), du(:, i): the row's own sum comes after them
       drho(i) = drho(i) + drho_i
       du(:, i) = du(:, i) + du_i
+      if (corrected) then
+        gp(:, i) = gp(:, i) + gp_i
+        sp(:, i) = sp(:, i) + sp_i
+      end if
+      if (renorm_div) tu(:, i) = tu(:, i) + tu_i(1:nt)
+      if (renorm) mm(:, i) = mm(:, i) + mi
     end do
+    ! the corrected operators, per particle: L_i = M_i^-1 (I where M_i is
+    ! nearly singular); the corrected pressure gradient where lambda_i >=
+    ! LAMBDA_NEAR, (E4) elsewhere; div_i = Sum_a (L_i Sum_j V_j g u_ji,a)_a
+    if (renorm) then
+      do i = 1, n
+        mi = mm(:, i)
+        lam = sym_min_eigenvalue(prm%dim, mi)
+        inv = 0
+        do l = 1, prm%dim
+          inv(l, l) = 1
+        end do
+        if (lam >= LAMBDA_MIN) call invert_sym(prm%dim, mi, inv, det)
+        if (corrected) then
+          if (lam >= LAMBDA_NEAR) then
+            du(:, i) = du(:, i) - inv_rho(i) * matmul(inv, gp(:, i))
+          else
+            du(:, i) = du(:, i) - inv_rho(i) * sp(:, i)
+          end if
+        end if
+        if (renorm_div) then
+          lt = 0
+          lt(1:prm%dim, 1:prm%dim) = matmul(inv(1:prm%dim, 1:prm%dim), &
+                                            reshape(tu(:, i), [prm%dim, prm%dim]))
+          drho(i) = drho(i) - rho(i) * (lt(1, 1) + lt(2, 2) + lt(3, 3))
+        end if
+      end do
+    end if
     ! halo slots hold partial sums: their owners compute the real values
     drho(n + 1:ntot) = 0
     du(:, n + 1:ntot) = 0
   end subroutine rhs_evaluate
+
+  !> (E8) Particle shifting of the delta-plus-SPH (Sun et al. 2017): the
+  !> displacement of each owned particle
+  !>   dr_i = -coef Sum_j [1 + R (W_ij/W(dx))^n] g V_j,  R = 0.2, n = 4,
+  !> with coef = CFL Ma (2h)^2 given by the caller, pushing particles from
+  !> crowded to sparse regions (-grad of the kernel sum), plus a repulsion
+  !> of close pairs.  On the free surface (lambda_i < LAMBDA_SURFACE, E9)
+  !> there is no shift; near it (lambda_i < LAMBDA_NEAR) the component along
+  !> the normal n_i = -nu_i/|nu_i|, nu_i = L_i Sum_j g V_j (the renormalised
+  !> gradient of the kernel sum, Marrone et al. 2010) is removed, so that the
+  !> surface does not diffuse outwards.  dr and lambda of halo slots are
+  !> zero.  Positions only: the caller adds dr to x.
+  subroutine rhs_shift(prm, n, ntot, x, rho, m, nl, coef, dx, dr, lambda)
+    type(rhs_params_t), intent(in) :: prm
+    integer, intent(in) :: n, ntot
+    real(wp), intent(in) :: x(3, ntot), rho(ntot), m(ntot), coef, dx
+    type(neighbour_list_t), intent(in) :: nl
+    real(wp), intent(out) :: dr(3, ntot), lambda(ntot)
+    real(wp), allocatable :: mm(:, :), s0(:, :), s1(:, :), vol(:)
+    real(wp), allocatable :: xl(:, :), r2l(:), fl(:), wl(:)
+    integer, allocatable :: jl(:)
+    real(wp) :: xij(3), g(3), xx(6), mi(6), s0i(3), s1i(3), w, inv_wdx, s2, vi, vj
+    real(wp) :: inv(3, 3), det, nu(3), nn_(3), a
+    integer :: i, j, l, nn, kk
+    allocate(mm(6, ntot), s0(3, ntot), s1(3, ntot), vol(ntot))
+    mm = 0
+    s0 = 0
+    s1 = 0
+    vol = m(1:ntot) / rho(1:ntot)
+    s2 = prm%kernel%support**2
+    inv_wdx = 1 / kernel_w(prm%kernel, dx)
+    call pair_buffers(nl, jl, xl, r2l, fl)
+    allocate(wl(size(r2l)))
+    do kk = 1, nl%n_rows
+      i = nl%row(kk)
+      call in_range_pairs(kk, i, x, s2, nl, nn, jl, xl, r2l)
+      call kernel_f_list(prm%kernel, nn, r2l, fl)
+      call kernel_w_list(prm%kernel, nn, r2l, wl)
+      vi = vol(i)
+      mi = 0
+      s0i = 0
+      s1i = 0
+      do l = 1, nn
+        j = jl(l)
+        xij = xl(:, l)
+        g = fl(l) * xij
+        vj = vol(j)
+        w = 1 + SHIFT_R * (wl(l) * inv_wdx)**SHIFT_N
+        ! g V_j for i, -g V_i for j (grad_j W_ji = -g)
+        s0i = s0i + vj * g
+        s0(:, j) = s0(:, j) - vi * g
+        s1i = s1i + (w * vj) * g
+        s1(:, j) = s1(:, j) - (w * vi) * g
+        ! (E3) M: -F x_ij x_ij^T, the same for i and j
+        xx = -fl(l) * [xij(1)**2, xij(2)**2, xij(3)**2, &
+                       xij(1) * xij(2), xij(1) * xij(3), xij(2) * xij(3)]
+        mi = mi + vj * xx
+        mm(:, j) = mm(:, j) + vi * xx
+      end do
+      mm(:, i) = mm(:, i) + mi
+      s0(:, i) = s0(:, i) + s0i
+      s1(:, i) = s1(:, i) + s1i
+    end do
+    dr = 0
+    lambda = 0
+    do i = 1, n
+      lambda(i) = sym_min_eigenvalue(prm%dim, mm(:, i))
+      if (lambda(i) < LAMBDA_SURFACE) cycle          ! on the free surface: none
+      dr(:, i) = -coef * s1(:, i)
+      if (lambda(i) >= LAMBDA_NEAR) cycle
+      ! near the free surface: no motion along the normal (lambda_i >=
+      ! LAMBDA_SURFACE > LAMBDA_MIN, so M_i is invertible)
+      call invert_sym(prm%dim, mm(:, i), inv, det)
+      nu = matmul(inv, s0(:, i))
+      a = norm2(nu)
+      if (.not. a > 0) cycle
+      nn_ = -nu / a
+      dr(:, i) = dr(:, i) - sum(dr(:, i) * nn_) * nn_
+    end do
+  end subroutine rhs_shift
 
 end module fluid_rhs

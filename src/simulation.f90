@@ -10,7 +10,8 @@ module simulation
   use kernels, only: kernel_init, KERNEL_WENDLAND_C2, KERNEL_CUBIC_SPLINE, KERNEL_GAUSSIAN
   use eos, only: eos_init, EOS_LINEAR, EOS_TAIT
   use fluid_rhs, only: VISC_NONE, VISC_DELTA, VISC_MONAGHAN, DIFF_NONE, DIFF_MOLTENI, &
-                       DIFF_ANTUONO
+                       DIFF_ANTUONO, PGRAD_STANDARD, PGRAD_HIGHER_ORDER, DIV_STANDARD, &
+                       DIV_RENORMALISED
   use solver, only: solver_t, solver_init, solver_step, solver_evaluate, solver_time_step, &
                     solver_sync_halo, &
                     SCHEME_RK4, SCHEME_PC2, BALANCE_PARTICLES, BALANCE_PAIRS
@@ -219,6 +220,12 @@ contains
     s%rhs%tensile_eps = merge(cfg%numerics%tensile_eps, 0.0_wp, cfg%numerics%tensile)
     s%rhs%tensile_n = cfg%numerics%tensile_n
     s%rhs%tensile_dx = dx
+    s%rhs%pressure_gradient = merge(PGRAD_HIGHER_ORDER, PGRAD_STANDARD, &
+                                    cfg%numerics%pressure_gradient == 'higher_order')
+    s%rhs%divergence = merge(DIV_RENORMALISED, DIV_STANDARD, &
+                             cfg%numerics%divergence == 'renormalised')
+    s%shifting = cfg%numerics%shifting
+    s%shift_dx = dx
     select case (cfg%numerics%viscosity)
     case ('none')
       s%rhs%viscosity = VISC_NONE

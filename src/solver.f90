@@ -6,8 +6,8 @@ module solver
   use neighbours, only: neighbour_list_t, neighbour_build, cell_sort_permutation, &
                         max_displacement
   use eos, only: eos_t, eos_pressure
-  use fluid_rhs, only: rhs_params_t, rhs_density_gradient, rhs_evaluate, DIFF_ANTUONO, &
-                       VISC_NONE
+  use fluid_rhs, only: rhs_params_t, rhs_renormalisation, rhs_evaluate, rhs_shift, &
+                       DIFF_ANTUONO, VISC_NONE, PGRAD_HIGHER_ORDER
   use parallel_env, only: parallel_env_t, par_max, par_min, wall_time
   use domain, only: domain_t, domain_balance, domain_imbalance, DECOMP_SLAB, DECOMP_METIS
   use halo_exchange, only: halo_t, migrate, halo_build, halo_refresh, halo_refresh_field
@@ -32,6 +32,15 @@ module solver
     real(wp) :: skin = 0          !< skin of the current list
     real(wp) :: nu = 0            !< kinematic viscosity equivalent to the artificial one
     real(wp), allocatable :: drho(:), du(:, :), grad_rho(:, :)
+    !> (E9) the free-surface indicator lambda_i from the first pass (one
+    !> row, so that the halo exchange of fields serves it)
+    real(wp), allocatable :: lambda(:, :)
+    !> (E8) particle shifting after each step: on/off, the spacing dx of
+    !> W(dx), the shifts of the last step and the largest of them (global)
+    logical :: shifting = .false.
+    real(wp) :: shift_dx = 0
+    real(wp), allocatable :: dr(:, :)
+    real(wp) :: shift_max = 0
     real(wp), allocatable :: xs(:, :), us(:, :), rhos(:)   !< state at the start of a step
     real(wp), allocatable :: xa(:, :), ua(:, :), rhoa(:)   !< RK4 accumulators
     integer :: n_rebuilds = 0
@@ -75,11 +84,13 @@ contains
     cap = size(s%parts%rho)
     if (allocated(s%drho)) then
       if (size(s%drho) >= cap) return
-      deallocate(s%drho, s%du, s%grad_rho, s%xs, s%us, s%rhos, s%xa, s%ua, s%rhoa)
+      deallocate(s%drho, s%du, s%grad_rho, s%xs, s%us, s%rhos, s%xa, s%ua, s%rhoa, s%lambda, &
+                 s%dr)
     end if
     allocate(s%drho(cap), s%du(3, cap), s%grad_rho(3, cap))
     allocate(s%xs(3, cap), s%us(3, cap), s%rhos(cap), s%xa(3, cap), s%ua(3, cap), s%rhoa(cap))
-    s%drho = 0; s%du = 0; s%grad_rho = 0
+    allocate(s%lambda(1, cap), s%dr(3, cap))
+    s%drho = 0; s%du = 0; s%grad_rho = 0; s%lambda = 0; s%dr = 0
   end subroutine ensure_capacity
 
   !> Re-balances the decomposition when needed (first call, or imbalance
@@ -154,26 +165,47 @@ contains
 
   !> One right-hand-side evaluation at the current state: halo copies
   !> refreshed, pressure from the equation of state, then the optional
-  !> density-gradient pass (its halo values exchanged in turn), then (E1-E5).
+  !> first pass (E3: the renormalised density gradient of the Antuono
+  !> diffusion; E9: the free-surface indicator for the higher-order pressure
+  !> gradient, which imposes p = 0 on free-surface partners), its halo
+  !> values exchanged in turn, then (E1-E7).  The renormalised divergence
+  !> needs no first pass: rhs_evaluate builds L_i with the other sums.
   subroutine solver_evaluate(s, env)
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
     integer :: ntot
     real(wp) :: t0
+    logical :: antuono, corrected, first_pass
+    antuono = s%rhs%diffusion == DIFF_ANTUONO
+    corrected = s%rhs%pressure_gradient == PGRAD_HIGHER_ORDER
+    first_pass = antuono .or. corrected
     associate(pt => s%parts)
       t0 = wall_time()
       call halo_refresh(s%halo, env, pt)
       s%comm_time = s%comm_time + (wall_time() - t0)
       ntot = pt%n + pt%n_halo
       pt%p(1:ntot) = eos_pressure(s%eos, pt%rho(1:ntot))
-      if (s%rhs%diffusion == DIFF_ANTUONO) then
-        call rhs_density_gradient(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%nl, s%grad_rho)
+      if (first_pass) then
+        if (antuono) then
+          call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%nl, &
+                                   s%lambda(1, :), grad_rho=s%grad_rho)
+        else
+          call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%nl, &
+                                   s%lambda(1, :))
+        end if
         t0 = wall_time()
-        call halo_refresh_field(s%halo, env, pt%n, s%grad_rho)
+        if (antuono) call halo_refresh_field(s%halo, env, pt%n, s%grad_rho)
+        ! p = 0 on free-surface partners: their lambda is needed too
+        if (corrected) call halo_refresh_field(s%halo, env, pt%n, s%lambda)
         s%comm_time = s%comm_time + (wall_time() - t0)
       end if
-      call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
-                        s%nl, s%drho, s%du)
+      if (corrected) then
+        call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
+                          s%nl, s%drho, s%du, s%lambda(1, :))
+      else
+        call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
+                          s%nl, s%drho, s%du)
+      end if
     end associate
     s%n_evaluations = s%n_evaluations + 1
   end subroutine solver_evaluate
@@ -285,6 +317,7 @@ contains
       end select
     end associate
     s%parts%p(1:n) = eos_pressure(s%eos, s%parts%rho(1:n))
+    if (s%shifting) call shift_particles(s, env, dt)
 
   contains
 
@@ -305,5 +338,38 @@ contains
     end subroutine accumulate
 
   end subroutine solver_step
+
+  !> (E8) Particle shifting after a step of dt: the halo copies are brought
+  !> to the end of the step, then every owned particle moves by
+  !>   dr_i = -CFL Ma (2h)^2 Sum_j [1 + 0.2 (W_ij/W(dx))^4] g V_j
+  !> (fluid_rhs: rhs_shift, with its free-surface treatment), where
+  !> Ma = Umax/c0 and CFL = dt (c0 + Umax)/h is the acoustic Courant number
+  !> of the step taken (numerics.cfl unless the step was shortened), Umax
+  !> the one of the step's time-step limit.  Positions only: velocities,
+  !> densities and masses are not changed, so momentum is not either.  The
+  !> list stays valid: it covered the step, and the displacement check of
+  !> the next step counts the shift.
+  subroutine shift_particles(s, env, dt)
+    type(solver_t), intent(inout) :: s
+    type(parallel_env_t), intent(in) :: env
+    real(wp), intent(in) :: dt
+    real(wp), allocatable :: lam(:)
+    real(wp) :: h, coef, t0, dmax
+    integer :: n, ntot
+    n = s%parts%n
+    h = s%rhs%kernel%h
+    t0 = wall_time()
+    call halo_refresh(s%halo, env, s%parts)
+    s%comm_time = s%comm_time + (wall_time() - t0)
+    ntot = n + s%parts%n_halo
+    coef = (dt * (s%rhs%c0 + s%umax) / h) * (s%umax / s%rhs%c0) * (2 * h)**2
+    allocate(lam(ntot))
+    call rhs_shift(s%rhs, n, ntot, s%parts%x, s%parts%rho, s%parts%m, s%nl, coef, &
+                   s%shift_dx, s%dr, lam)
+    s%parts%x(:, 1:n) = s%parts%x(:, 1:n) + s%dr(:, 1:n)
+    dmax = 0
+    if (n > 0) dmax = sqrt(maxval(sum(s%dr(:, 1:n)**2, dim=1)))
+    s%shift_max = par_max(env, dmax)
+  end subroutine shift_particles
 
 end module solver

@@ -48,6 +48,15 @@ def test_slab_bitwise_with_density_gradient_exchange():
     check_agreement(["numerics.diffusion=antuono", "physics.eos=tait"], "antuono", [3])
 
 
+def test_corrected_operators_and_shifting_bitwise():
+    # the higher-order pressure gradient needs the free-surface indicator of
+    # halo copies (an exchange), the renormalised divergence the matrix L of
+    # the first pass, and shifting a halo refresh after each step: all in
+    # canonical order
+    check_agreement(["numerics.pressure_gradient=higher_order", "numerics.divergence=renormalised",
+                     "numerics.shifting=.true.", "numerics.diffusion=antuono"], "corrected", [2, 3])
+
+
 def test_metis_bitwise_at_2_and_3_ranks():
     check_agreement(["parallel.decomposition=metis"], "metis", [2, 3])
 

@@ -81,7 +81,7 @@ contains
     end do
     close(u, status='delete')
     ! 43 variables, probes written once (probe 1, as n_probes = 1)
-    call assert_equal(43, nvars, 'variable lines in the defaults file')
+    call assert_equal(46, nvars, 'variable lines in the defaults file')
     call assert_equal(nvars, ncommented, 'variable lines with a comment saying what is allowed')
   end subroutine defaults_round_trip
 
@@ -117,6 +117,9 @@ contains
     c%numerics%tensile = .true.
     c%numerics%tensile_eps = 0.15_wp
     c%numerics%tensile_n = 3
+    c%numerics%pressure_gradient = 'higher_order'
+    c%numerics%divergence = 'renormalised'
+    c%numerics%shifting = .true.
     c%output%dir = 'runs/it''s!a test'
     c%output%dt = 1.0e-5_wp
     c%output%probe_every = 3
@@ -265,7 +268,8 @@ contains
     call assert_equal(7.0_wp, c%physics%c0 / (c%square_rotation%omega * c%square_rotation%side), &
                       1e-12_wp, 'square_rotation c0 = 7 omega L')
     call assert_true(c%run%t_end * c%square_rotation%omega >= 4, 'square_rotation t omega >= 4')
-    call assert_true(c%numerics%tensile, 'square_rotation uses the tensile control')
+    call assert_true(c%numerics%shifting .and. .not. c%numerics%tensile, &
+                     'square_rotation keeps its particles regular by shifting')
     call assert_true(c%output%n_probes >= 1 .and. all(abs(c%output%probes(:, 1)) <= 0), &
                      'square_rotation probe 1 at the centre A')
 
@@ -347,6 +351,11 @@ contains
       'allowed 1 <= tensile_n <= 8'])
     call expect_error(F, '&numerics tensile = 1 /', NONE, [character(len=80) :: &
       '&numerics tensile = 1 cannot be read as a logical', '.true. or .false.'])
+    call expect_error(CL, '', [character(len=40) :: 'numerics.pressure_gradient=high'], &
+      [character(len=80) :: "&numerics pressure_gradient = 'high' is not allowed", &
+      "choose one of 'standard', 'higher_order'"])
+    call expect_error(F, '&numerics shifting = yes /', NONE, [character(len=80) :: &
+      '&numerics shifting = yes cannot be read as a logical', '.true. or .false.'])
     call expect_error(F, '&square_rotation side = -1 /', NONE, [character(len=80) :: &
       '&square_rotation side = -1.0 is out of range', 'allowed side > 0'])
     call expect_error(F, '&square_vortical v0 = 0 /', NONE, [character(len=80) :: &
@@ -536,6 +545,11 @@ contains
     call assert_equal(e%numerics%tensile_eps, a%numerics%tensile_eps, 0.0_wp, &
                       l // 'numerics.tensile_eps')
     call assert_equal(e%numerics%tensile_n, a%numerics%tensile_n, l // 'numerics.tensile_n')
+    call assert_equal(trim(e%numerics%pressure_gradient), trim(a%numerics%pressure_gradient), &
+                      l // 'numerics.pressure_gradient')
+    call assert_equal(trim(e%numerics%divergence), trim(a%numerics%divergence), &
+                      l // 'numerics.divergence')
+    call assert_true(e%numerics%shifting .eqv. a%numerics%shifting, l // 'numerics.shifting')
     call assert_equal(e%square_rotation%side, a%square_rotation%side, 0.0_wp, &
                       l // 'square_rotation.side')
     call assert_equal(e%square_rotation%omega, a%square_rotation%omega, 0.0_wp, &
