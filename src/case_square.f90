@@ -24,8 +24,7 @@ module case_square
   use kinds, only: wp, pi
   use case_base, only: case_t, case_fields_t
   use config, only: config_t
-  use kernels, only: kernel_t, kernel_init, KERNEL_WENDLAND_C2, KERNEL_CUBIC_SPLINE, &
-                     KERNEL_GAUSSIAN
+  use kernels, only: kernel_t, kernel_init, kernel_kind_of
   use particles, only: particles_t, particles_allocate
   use eos, only: eos_t, eos_density
   use poisson_square, only: poisson_square_t, poisson_square_nodes, poisson_square_solve, &
@@ -185,14 +184,7 @@ contains
     end associate
     end associate
 
-    select case (cfg%numerics%kernel)
-    case ('cubic_spline')
-      kind = KERNEL_CUBIC_SPLINE
-    case ('gaussian')
-      kind = KERNEL_GAUSSIAN
-    case default
-      kind = KERNEL_WENDLAND_C2
-    end select
+    kind = kernel_kind_of(trim(cfg%numerics%kernel))
     self%kernel = kernel_init(kind, 2, cfg%particles%h_over_dx * dx)
   end subroutine square_setup
 

@@ -9,8 +9,7 @@ module case_stretching
   use kinds, only: wp
   use case_base, only: case_t, case_fields_t
   use config, only: config_t
-  use kernels, only: kernel_t, kernel_init, KERNEL_WENDLAND_C2, KERNEL_CUBIC_SPLINE, &
-                     KERNEL_GAUSSIAN
+  use kernels, only: kernel_t, kernel_init, kernel_kind_of
   use flow_diagnostics, only: free_surface_lambda
   use particles, only: particles_t, particles_allocate
   use placement, only: place_ball, ball_spacing
@@ -95,14 +94,7 @@ contains
       parts%id(i) = i
     end do
     end associate
-    select case (cfg%numerics%kernel)
-    case ('cubic_spline')
-      kind = KERNEL_CUBIC_SPLINE
-    case ('gaussian')
-      kind = KERNEL_GAUSSIAN
-    case default
-      kind = KERNEL_WENDLAND_C2
-    end select
+    kind = kernel_kind_of(trim(cfg%numerics%kernel))
     self%kernel = kernel_init(kind, self%dim, cfg%particles%h_over_dx * dx)
   end subroutine stretching_setup
 

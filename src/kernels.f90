@@ -6,7 +6,7 @@ module kernels
   use kinds, only: wp, pi
   implicit none
   private
-  public :: kernel_t, kernel_init, kernel_w, kernel_f, kernel_f_list, kernel_w_list
+  public :: kernel_t, kernel_init, kernel_kind_of, kernel_w, kernel_f, kernel_f_list, kernel_w_list
   public :: KERNEL_WENDLAND_C2, KERNEL_CUBIC_SPLINE, KERNEL_GAUSSIAN
 
   integer, parameter :: KERNEL_WENDLAND_C2 = 1   !< (K1)
@@ -26,6 +26,20 @@ module kernels
   end type kernel_t
 
 contains
+
+  !> The kernel kind for its input name ('wendland_c2', 'cubic_spline',
+  !> 'gaussian'; config has validated it, Wendland C2 otherwise).
+  pure integer function kernel_kind_of(name) result(kind)
+    character(len=*), intent(in) :: name
+    select case (name)
+    case ('cubic_spline')
+      kind = KERNEL_CUBIC_SPLINE
+    case ('gaussian')
+      kind = KERNEL_GAUSSIAN
+    case default
+      kind = KERNEL_WENDLAND_C2
+    end select
+  end function kernel_kind_of
 
   !> Sets up kernel `kind` in dimension `dim` with smoothing length h.
   function kernel_init(kind, dim, h) result(k)

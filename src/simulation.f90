@@ -7,7 +7,7 @@ module simulation
   use particles, only: particles_t, particles_permute
   use memory_usage, only: peak_memory_mb
   use config, only: config_t, config_dim, config_echo
-  use kernels, only: kernel_init, KERNEL_WENDLAND_C2, KERNEL_CUBIC_SPLINE, KERNEL_GAUSSIAN
+  use kernels, only: kernel_init, kernel_kind_of
   use eos, only: eos_init, EOS_LINEAR, EOS_TAIT
   use fluid_rhs, only: VISC_NONE, VISC_DELTA, VISC_MONAGHAN, DIFF_NONE, DIFF_MOLTENI, &
                        DIFF_ANTUONO, PGRAD_STANDARD, PGRAD_HIGHER_ORDER, DIV_STANDARD, &
@@ -203,14 +203,7 @@ contains
     call make_case(trim(cfg%run%case_name), run%problem)
     call run%problem%setup(cfg, s%eos, s%parts, dx)
     call keep_share(env, s%parts)
-    select case (cfg%numerics%kernel)
-    case ('cubic_spline')
-      kernel_kind = KERNEL_CUBIC_SPLINE
-    case ('gaussian')
-      kernel_kind = KERNEL_GAUSSIAN
-    case default
-      kernel_kind = KERNEL_WENDLAND_C2
-    end select
+    kernel_kind = kernel_kind_of(trim(cfg%numerics%kernel))
     s%rhs%dim = dim
     s%rhs%kernel = kernel_init(kernel_kind, dim, cfg%particles%h_over_dx * dx)
     s%rhs%c0 = cfg%physics%c0
