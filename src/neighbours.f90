@@ -13,7 +13,7 @@ module neighbours
   use kinds, only: wp, i8
   implicit none
   private
-  public :: neighbour_list_t, cell_sort_permutation, neighbour_build, max_displacement
+  public :: neighbour_list_t, cell_sort_permutation, neighbour_build
 
   !> Half list in compressed rows, in canonical order (neighbour_build):
   !> row k belongs to particle row(k) (owned, or a halo copy when > n) and
@@ -27,7 +27,7 @@ module neighbours
     integer, allocatable :: row(:)        !< (n_rows) the particle of each row
     integer(i8), allocatable :: start(:)  !< (n_rows+1)
     integer, allocatable :: nbr(:)
-    real(wp), allocatable :: x_ref(:, :)  !< owned positions at build, for the skin test
+    real(wp), allocatable :: x_ref(:, :)  !< owned positions at build, for the validity test
   end type neighbour_list_t
 
   !> The occupied cells of a grid of cubic cells of side `size` aligned on
@@ -372,18 +372,5 @@ contains
       end do
     end do
   end subroutine sort_cells_by_id
-
-  !> Largest distance an owned particle has moved since the list was built.
-  function max_displacement(nl, x) result(dmax)
-    type(neighbour_list_t), intent(in) :: nl
-    real(wp), intent(in) :: x(:, :)
-    real(wp) :: dmax
-    integer :: i
-    dmax = 0
-    do i = 1, nl%n
-      dmax = max(dmax, sum((x(:, i) - nl%x_ref(:, i))**2))
-    end do
-    dmax = sqrt(dmax)
-  end function max_displacement
 
 end module neighbours

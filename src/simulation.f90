@@ -445,7 +445,7 @@ contains
       wall, ' s, ', wall / max(steps, 1), ' s/step, ', &
       real(run%n_global, wp) * steps / max(wall, 1e-9_wp), ' particle-steps/s on ', &
       env%nranks, ' rank(s)'
-    write(output_unit, '(a,i0,a,i0,a,i0,a,f8.1,a,f6.1,a,f9.1,a,f9.1,a)') &
+    write(output_unit, '(a,i0,a,i0,a,i0,a,f8.1,a,f6.2,a,f9.1,a,f9.1,a)') &
       '  right-hand sides ', s%n_evaluations, ', list rebuilds ', s%n_rebuilds, &
       ', snapshots ', run%n_snapshots, ', pairs per particle ', &
       real(s%nl%n_pairs, wp) * 2 / max(s%parts%n, 1), ' (skin ', s%skin / s%rhs%kernel%h, &

@@ -3,8 +3,8 @@
 module solver
   use kinds, only: wp, i8
   use particles, only: particles_t, particles_permute
-  use neighbours, only: neighbour_list_t, neighbour_build, cell_sort_permutation, &
-                        max_displacement
+  use neighbours, only: neighbour_list_t, neighbour_build, cell_sort_permutation
+  use affine_motion, only: affine_fit, sigma_min
   use eos, only: eos_t, eos_pressure
   use fluid_rhs, only: rhs_params_t, rhs_renormalisation, rhs_evaluate, rhs_shift, &
                        DIFF_ANTUONO, VISC_NONE, PGRAD_HIGHER_ORDER
@@ -248,30 +248,49 @@ contains
   end subroutine solver_time_step
 
   !> Advances the state by one step of at most dt_limit; returns the dt taken.
-  !> A pair outside the list can come within the kernel support only after
-  !> one of its particles has moved half the skin.  A step moves a particle
-  !> at most about dt_cfl Umax = cfl h Umax/(c0 + Umax) (1.25 covers the
-  !> speed-up within the step), so the list is rebuilt when the displacement
-  !> since the last build plus that reach could exceed half the skin, and a
-  !> rebuild widens the skin when needed so that the list always covers at
-  !> least the coming step (numerics.skin is the minimum).  A rebuild is
-  !> also done when s%force_rebuild is set (after each snapshot, so that a
-  !> run restarted from it goes through the same list history).
+  !> The list is rebuilt unless it surely holds every pair that comes within
+  !> the kernel support during the step (doc/numerics.md, "When the list is
+  !> rebuilt").  Since its build at x0, x = F x0 + b + e (affine_motion), so
+  !> unlisted pairs are at least s0 = sigma_min(F) r_list - 2 e_max apart.
+  !> Within the step (dt <= tau = cfl h/(c0 + Umax)) the velocities
+  !> u = V x + c + w move a pair at separation s apart by at most
+  !> tau (|V| s + 2 w_max) + 4 tau^2 a_max (the stage velocities differ from
+  !> u by at most dt a_max; 2 a_max allows the acceleration to double), so
+  !> the list stays valid while
+  !>   s0 (1 - tau |V|) - 2 tau w_max - 4 tau^2 a_max > support.
+  !> A rebuild resets s0 to r_list and takes the skin that covers a few such
+  !> steps (at least numerics.skin).  The fits of F and V use sums that do
+  !> not depend on the decomposition, so every rank count rebuilds at the
+  !> same steps.  A rebuild is also done when s%force_rebuild is set (after
+  !> each snapshot, so that a run restarted from it goes through the same
+  !> list history).
   subroutine solver_step(s, env, dt_limit, dt)
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
     real(wp), intent(in) :: dt_limit
     real(wp), intent(out) :: dt
-    real(wp) :: moved, reach, umax
-    integer :: n
+    real(wp) :: f(3, 3), v(3, 3), b(3), e_max, w_max, umax, amax, tau, growth, drift, s0, &
+                support
+    integer :: n, dim
     n = s%parts%n
-    moved = par_max(env, max_displacement(s%nl, s%parts%x))
+    dim = s%parts%dim
+    support = s%rhs%kernel%support
+    call affine_fit(env, dim, n, s%nl%x_ref, s%parts%x, f, b, e_max)
+    call affine_fit(env, dim, n, s%parts%x, s%parts%u, v, b, w_max)
     umax = 0
-    if (n > 0) umax = sqrt(maxval(sum(s%parts%u(:, 1:n)**2, dim=1)))
+    amax = 0
+    if (n > 0) then
+      umax = sqrt(maxval(sum(s%parts%u(:, 1:n)**2, dim=1)))
+      amax = sqrt(maxval(sum(s%du(:, 1:n)**2, dim=1)))
+    end if
     umax = par_max(env, umax)
-    reach = 1.25_wp * s%cfl * s%rhs%kernel%h * umax / (s%rhs%c0 + umax)
-    if (2 * (moved + reach) >= s%skin .or. s%force_rebuild) then
-      s%skin = max(s%skin_min, 2.2_wp * reach)
+    amax = par_max(env, amax)
+    tau = s%cfl * s%rhs%kernel%h / (s%rhs%c0 + umax)
+    growth = tau * sqrt(sum(v**2))
+    drift = 2 * tau * w_max + 4 * tau**2 * amax
+    s0 = sigma_min(dim, f) * (support + s%skin) - 2 * e_max
+    if (s0 * (1 - growth) - drift <= support .or. s%force_rebuild) then
+      s%skin = max(s%skin_min, 2.2_wp * (support * growth + drift) / max(1 - growth, 0.5_wp))
       call solver_rebuild(s, env)
       s%force_rebuild = .false.
     end if
@@ -347,8 +366,8 @@ contains
   !> of the step taken (numerics.cfl unless the step was shortened), Umax
   !> the one of the step's time-step limit.  Positions only: velocities,
   !> densities and masses are not changed, so momentum is not either.  The
-  !> list stays valid: it covered the step, and the displacement check of
-  !> the next step counts the shift.
+  !> list stays valid: it covered the step, and the validity test of the
+  !> next step counts the shift.
   subroutine shift_particles(s, env, dt)
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env

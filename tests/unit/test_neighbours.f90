@@ -4,8 +4,7 @@
 !> for bit, the one computed on the whole cloud.
 module test_neighbours
   use kinds, only: wp, i8
-  use neighbours, only: neighbour_list_t, neighbour_build, cell_sort_permutation, &
-                        max_displacement
+  use neighbours, only: neighbour_list_t, neighbour_build, cell_sort_permutation
   use kernels, only: kernel_init, KERNEL_WENDLAND_C2
   use fluid_rhs, only: rhs_params_t, rhs_evaluate, rhs_density_gradient, DIFF_ANTUONO, &
                        VISC_DELTA
@@ -31,7 +30,6 @@ contains
     call run_test('neighbours', 'cell_sort_is_a_permutation', sort_permutation)
     call run_test('neighbours', 'cell_sort_with_far_particles', sort_permutation_far)
     call run_test('neighbours', 'far_particles_build_time', far_build_time)
-    call run_test('neighbours', 'displacement_since_build', displacement)
   end subroutine suite_neighbours
 
   !> Random cloud of ntot particles in a box of side `side`.
@@ -425,17 +423,5 @@ contains
       ' s with 8 at 1e6 cells'
     call assert_true(nl%n_pairs > 0, 'the list has pairs')
   end subroutine far_build_time
-
-  subroutine displacement()
-    real(wp), allocatable :: x(:, :)
-    type(neighbour_list_t) :: nl
-    integer :: k
-    call random_cloud(3, 500, 1.0_wp, 15, x)
-    call neighbour_build(nl, 3, 500, 500, x, [(int(k, i8), k = 1, 500)], 0.2_wp, &
-                         minval(x, dim=2))
-    x(2, 17) = x(2, 17) + 0.03_wp
-    x(1, 400) = x(1, 400) - 0.01_wp
-    call assert_equal(0.03_wp, max_displacement(nl, x), 1e-14_wp, 'largest displacement')
-  end subroutine displacement
 
 end module test_neighbours

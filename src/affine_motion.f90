@@ -1,0 +1,153 @@
+!> The motion of the particles split into an affine part and a residual,
+!> for the neighbour-list validity test (doc/numerics.md, "When the list is
+!> rebuilt").
+!>
+!> A list built at positions x0 with radius r_list = support + skin holds
+!> every pair closer than r_list.  If now x_i = F x0_i + b + e_i with
+!> |e_i| <= e_max, an unlisted pair (|x0_i - x0_j| > r_list) is at least
+!>   s_min = sigma_min(F) r_list - 2 e_max
+!> apart, sigma_min the smallest singular value of F.  The usual test
+!> (displacement below half the skin) is the case F = I, b = 0; fitting F
+!> and b makes translations, rotations and uniform strains cost nothing,
+!> which is most of the motion of the prototype problems.  Every quantity
+!> is computed from sums that do not depend on the number of ranks
+!> (par_sum_exact), so every rank count rebuilds at the same steps and
+!> results stay bitwise independent of the decomposition.
+module affine_motion
+  use kinds, only: wp
+  use parallel_env, only: parallel_env_t, par_sum_exact, par_max
+  implicit none
+  private
+  public :: affine_fit, sigma_min
+
+contains
+
+  !> Least-squares fit y_i ~ A x_i + b over the particles of every rank
+  !> (first dim components; the others of A and b are 0), and the largest
+  !> residual e_max = max_i |y_i - A x_i - b| (global).  A degenerate cloud
+  !> (fewer than dim + 1 independent points) gets A = 0, b = mean of y:
+  !> still a valid decomposition, only a less useful one.
+  subroutine affine_fit(env, dim, n, x, y, a, b, e_max)
+    type(parallel_env_t), intent(in) :: env
+    integer, intent(in) :: dim, n
+    real(wp), intent(in) :: x(:, :), y(:, :)
+    real(wp), intent(out) :: a(3, 3), b(3), e_max
+    real(wp), allocatable :: t(:, :)
+    real(wp) :: xm(3), ym(3), cxx(3, 3), cyx(3, 3), s(15), ntot, m(3, 3)
+    integer, parameter :: P(6) = [1, 1, 1, 2, 2, 3], Q(6) = [1, 2, 3, 2, 3, 3]
+    integer :: i, k, l
+    ! the means, then the centred moments (centring first avoids the
+    ! cancellation in Sum x x^T - N xm xm^T for a cloud far from the origin)
+    allocate(t(15, n))
+    do i = 1, n
+      t(1:3, i) = x(:, i)
+      t(4:6, i) = y(:, i)
+      t(7, i) = 1
+    end do
+    s(1:7) = par_sum_exact(env, t(1:7, :))
+    ntot = s(7)
+    xm = 0
+    ym = 0
+    if (ntot > 0) then
+      xm = s(1:3) / ntot
+      ym = s(4:6) / ntot
+    end if
+    do i = 1, n
+      do k = 1, 6
+        t(k, i) = (x(P(k), i) - xm(P(k))) * (x(Q(k), i) - xm(Q(k)))
+      end do
+      do l = 1, 3
+        do k = 1, 3
+          t(6 + k + 3 * (l - 1), i) = (y(k, i) - ym(k)) * (x(l, i) - xm(l))
+        end do
+      end do
+    end do
+    s = par_sum_exact(env, t)
+    do k = 1, 6
+      cxx(P(k), Q(k)) = s(k)
+      cxx(Q(k), P(k)) = s(k)
+    end do
+    cyx = reshape(s(7:15), [3, 3])
+    a = 0
+    if (invert_spd(dim, cxx, m)) a(1:dim, 1:dim) = matmul(cyx(1:dim, 1:dim), m(1:dim, 1:dim))
+    b = 0
+    b(1:dim) = ym(1:dim) - matmul(a(1:dim, 1:dim), xm(1:dim))
+    e_max = 0
+    do i = 1, n
+      e_max = max(e_max, sum((y(1:dim, i) - matmul(a(1:dim, 1:dim), x(1:dim, i)) - b(1:dim))**2))
+    end do
+    e_max = par_max(env, sqrt(e_max))
+  end subroutine affine_fit
+
+  !> Inverse of the leading dim x dim block of a symmetric positive matrix
+  !> by Gauss-Jordan elimination; false if it is (numerically) singular.
+  logical function invert_spd(dim, c, inv) result(ok)
+    integer, intent(in) :: dim
+    real(wp), intent(in) :: c(3, 3)
+    real(wp), intent(out) :: inv(3, 3)
+    real(wp) :: w(3, 6), piv, scale
+    integer :: k, l
+    inv = 0
+    ok = .false.
+    scale = maxval([(abs(c(k, k)), k = 1, dim)])
+    if (.not. scale > 0) return
+    w = 0
+    w(1:dim, 1:dim) = c(1:dim, 1:dim)
+    do k = 1, dim
+      w(k, 3 + k) = 1
+    end do
+    do k = 1, dim
+      ! positive definite: the diagonal pivots stay positive without row exchanges
+      piv = w(k, k)
+      if (piv <= 1e-12_wp * scale) return
+      w(k, :) = w(k, :) / piv
+      do l = 1, dim
+        if (l /= k) w(l, :) = w(l, :) - w(l, k) * w(k, :)
+      end do
+    end do
+    inv(1:dim, 1:dim) = w(1:dim, 4:3 + dim)
+    ok = .true.
+  end function invert_spd
+
+  !> Smallest singular value of the leading dim x dim block of f: the
+  !> square root of the smallest eigenvalue of f^T f, by cyclic Jacobi
+  !> rotations (converged to rounding in a few sweeps for 3 x 3).
+  function sigma_min(dim, f) result(smin)
+    integer, intent(in) :: dim
+    real(wp), intent(in) :: f(3, 3)
+    real(wp) :: smin
+    real(wp) :: g(3, 3), th, c, s, t, gpp, gqq, gpq
+    integer :: sweep, p, q, k
+    g = 0
+    g(1:dim, 1:dim) = matmul(transpose(f(1:dim, 1:dim)), f(1:dim, 1:dim))
+    do sweep = 1, 50
+      if (sum([((g(p, q)**2, q = p + 1, dim), p = 1, dim)]) <= &
+          1e-30_wp * sum([(g(p, p)**2, p = 1, dim)])) exit
+      do p = 1, dim - 1
+        do q = p + 1, dim
+          gpq = g(p, q)
+          if (abs(gpq) <= tiny(gpq)) cycle
+          gpp = g(p, p)
+          gqq = g(q, q)
+          th = (gqq - gpp) / (2 * gpq)
+          t = sign(1.0_wp, th) / (abs(th) + sqrt(th**2 + 1))
+          c = 1 / sqrt(t**2 + 1)
+          s = t * c
+          ! g <- J^T g J with the rotation J in the (p, q) plane
+          do k = 1, dim
+            th = g(k, p)
+            g(k, p) = c * th - s * g(k, q)
+            g(k, q) = s * th + c * g(k, q)
+          end do
+          do k = 1, dim
+            th = g(p, k)
+            g(p, k) = c * th - s * g(q, k)
+            g(q, k) = s * th + c * g(q, k)
+          end do
+        end do
+      end do
+    end do
+    smin = sqrt(max(0.0_wp, minval([(g(p, p), p = 1, dim)])))
+  end function sigma_min
+
+end module affine_motion
