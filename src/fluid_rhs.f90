@@ -97,6 +97,7 @@ contains
     real(wp), intent(out) :: lambda(ntot)
     real(wp), intent(out), optional :: lmat(6, ntot), grad_rho(3, ntot)
     real(wp), allocatable :: mm(:, :)   ! symmetric M: xx, yy, zz, xy, xz, yz
+    real(wp), allocatable :: vol(:)
     real(wp), allocatable :: xl(:, :), r2l(:), fl(:)
     integer, allocatable :: jl(:)
     real(wp) :: xij(3), f, g(3), vi, vj, drho, s2, inv(3, 3), det, xx(6)
@@ -104,8 +105,9 @@ contains
     integer :: i, j, l, nn, kk
     logical :: with_g
     with_g = present(grad_rho)
-    allocate(mm(6, ntot))
+    allocate(mm(6, ntot), vol(ntot))
     mm = 0
+    vol = m(1:ntot) / rho(1:ntot)
     if (with_g) grad_rho = 0
     s2 = prm%kernel%support**2
     call pair_buffers(nl, jl, xl, r2l, fl)
@@ -113,14 +115,14 @@ contains
       i = nl%row(kk)
       call in_range_pairs(kk, i, x, s2, nl, nn, jl, xl, r2l)
       call kernel_f_list(prm%kernel, nn, r2l, fl)
-      vi = m(i) / rho(i)
+      vi = vol(i)
       gi = 0
       mi = 0
       do l = 1, nn
         j = jl(l)
         xij = xl(:, l)
         f = fl(l)
-        vj = m(j) / rho(j)
+        vj = vol(j)
         if (with_g) then
           g = f * xij
           drho = rho(j) - rho(i)
@@ -272,31 +274,31 @@ contains
   !>   Sum_j u_ji . (L_i g) V_j, exact for linear velocity fields (the
   !>   standard sum is not near the free surface, where it makes the density
   !>   drift).
-  !> The corrected sums, and M_i (E3) with them, follow the canonical row
-  !> order like every other term (e.g. (p_j - p_i) g V_j to i and
-  !> (p_i - p_j)(-g) V_i to j); L_i = M_i^-1 (I where lambda_i < LAMBDA_MIN)
-  !> multiplies them per particle once the sums are complete.  For the
-  !> pressure gradient, lambda must hold the free-surface indicator of the
-  !> owned particles and halo copies (rhs_renormalisation, then the halo
-  !> exchange).  grad_rho (G) is used only with the Antuono diffusion and
-  !> must then hold valid values for halo copies too.
-  subroutine rhs_evaluate(prm, n, ntot, x, u, rho, m, p, grad_rho, nl, drho, du, lambda)
+  !> L_i = M_i^-1 (E3; I where lambda_i < LAMBDA_MIN) comes from the first
+  !> pass (rhs_renormalisation: lmat) or, when lmat is not given, from one
+  !> done here; each pair then uses L_i g for i and L_j g for j, so the
+  !> corrected terms go into the same canonical-order sums as the others.
+  !> For the pressure gradient, lambda must hold the free-surface indicator
+  !> of the owned particles and halo copies (rhs_renormalisation, then the
+  !> halo exchange).  grad_rho (G) is used only with the Antuono diffusion
+  !> and must then hold valid values for halo copies too.
+  subroutine rhs_evaluate(prm, n, ntot, x, u, rho, m, p, grad_rho, nl, drho, du, lambda, &
+                          lmat)
     type(rhs_params_t), intent(in) :: prm
     integer, intent(in) :: n, ntot
     real(wp), intent(in) :: x(3, ntot), u(3, ntot), rho(ntot), m(ntot), p(ntot)
     real(wp), intent(in) :: grad_rho(3, ntot)
     type(neighbour_list_t), intent(in) :: nl
     real(wp), intent(out) :: drho(ntot), du(3, ntot)
-    real(wp), intent(in), optional :: lambda(ntot)
+    real(wp), intent(in), optional :: lambda(ntot), lmat(:, :)
     real(wp) :: xij(3), uji(3), g(3), r2, f, s2, h, eta2
-    real(wp) :: div, dterm, a, coef_visc, diff_coef, xu, vi, vj, iri, irj
-    real(wp) :: drho_i, du_i(3), rhoi, pi_, dp, gp_i(3), sp_i(3), tu_i(9), gu(9), mi(6), xx(6)
-    real(wp) :: inv(3, 3), det, lam, lt(3, 3)
+    real(wp) :: div_i, div_j, dterm, a, coef_visc, diff_coef, xu, vi, vj, iri, irj
+    real(wp) :: drho_i, du_i(3), rhoi, pi_, pp, dp, li(6), lgi(3), lgj(3), wi, wj
     real(wp), allocatable :: vol(:), inv_rho(:), xl(:, :), r2l(:), fl(:), rt(:), wl(:)
-    real(wp), allocatable :: pf(:), gp(:, :), sp(:, :), tu(:, :), mm(:, :)
+    real(wp), allocatable :: pf(:), wc(:), lam_own(:), l_own(:, :)
     real(wp) :: inv_wdx
     integer, allocatable :: jl(:)
-    integer :: i, j, l, nn, kk, nt
+    integer :: i, j, l, nn, kk
     logical :: antuono, tensile, corrected, renorm_div, renorm
     h = prm%kernel%h
     s2 = prm%kernel%support**2
@@ -320,27 +322,29 @@ contains
       rt = prm%tensile_eps * max(0.0_wp, -p(1:ntot)) * inv_rho**2
       inv_wdx = 1 / kernel_w(prm%kernel, prm%tensile_dx)
     end if
-    ! (section 5): the pressure with p = 0 on the free surface; the sums
-    ! Sum_j (p_j - p_i) g V_j (gp) and Sum_j (p_i + p_j) g V_j (sp), one of
-    ! which each particle takes.  Renormalised divergence: the sums
-    ! Sum_j V_j g (x) u_ji (tu; nt = dim^2 components, by rows of u).
-    ! Either: M_i (mm, E3).
+    ! The corrected operators use L_i g in place of g: L_i from the first
+    ! pass (lmat), or from one done here.  Halo slots of L are zero: the
+    ! terms they give to halo copies are discarded below anyway.
     corrected = prm%pressure_gradient == PGRAD_HIGHER_ORDER
     renorm_div = prm%divergence == DIV_RENORMALISED
     renorm = corrected .or. renorm_div
+    if (renorm .and. .not. present(lmat)) then
+      allocate(lam_own(ntot), l_own(6, ntot))
+      call rhs_renormalisation(prm, n, ntot, x, rho, m, nl, lam_own, l_own)
+    end if
+    ! (section 5): the pressure with p = 0 on the free surface (pf), and the
+    ! weight wc = 1 of the consistent form inside the fluid (lambda >=
+    ! LAMBDA_NEAR), 0 (the conservative E4) on and near the surface
     if (corrected) then
       if (.not. present(lambda)) error stop 'rhs_evaluate: the higher-order gradient needs lambda'
-      allocate(pf(ntot), gp(3, ntot), sp(3, ntot))
+      allocate(pf(ntot), wc(ntot))
       pf = merge(0.0_wp, p(1:ntot), lambda(1:ntot) < LAMBDA_SURFACE)
-      gp = 0
-      sp = 0
+      wc = merge(1.0_wp, 0.0_wp, lambda(1:ntot) >= LAMBDA_NEAR)
     end if
-    ! in 2D only the in-plane components of T: (xx, yx, xy, yy)
-    nt = prm%dim**2
-    allocate(tu(nt, merge(ntot, 0, renorm_div)))   ! no columns when not needed
-    allocate(mm(6, merge(ntot, 0, renorm)))
-    tu = 0
-    mm = 0
+    li = 0
+    lgi = 0
+    lgj = 0
+    wi = 0
     drho = 0
     du = 0
     do kk = 1, nl%n_rows
@@ -352,12 +356,16 @@ contains
       iri = inv_rho(i)
       vi = vol(i)
       pi_ = p(i)
+      if (renorm) then
+        if (present(lmat)) then
+          li = lmat(:, i)
+        else
+          li = l_own(:, i)
+        end if
+      end if
+      if (corrected) wi = wc(i)
       drho_i = 0
       du_i = 0
-      gp_i = 0
-      sp_i = 0
-      tu_i = 0
-      mi = 0
       do l = 1, nn
         j = jl(l)
         xij = xl(:, l)
@@ -367,48 +375,40 @@ contains
         vj = vol(j)
         irj = inv_rho(j)
         uji = u(:, j) - u(:, i)
-        ! (E1): u_ji . g is the pair's velocity divergence; renormalised,
-        ! g (x) u_ji (the same for i and j) is kept for L_i afterwards
-        div = uji(1) * g(1) + uji(2) * g(2) + uji(3) * g(3)
-        if (renorm_div) then
-          if (nt == 4) then
-            gu(1:4) = [g(1:2) * uji(1), g(1:2) * uji(2)]
-          else
-            gu = [g * uji(1), g * uji(2), g * uji(3)]
-          end if
-          tu_i(1:nt) = tu_i(1:nt) + vj * gu(1:nt)
-          tu(:, j) = tu(:, j) + vi * gu(1:nt)
-          div = 0
-        end if
         if (renorm) then
-          ! (E3) -F x_ij x_ij^T, the same for i and j
-          xx = -f * [xij(1)**2, xij(2)**2, xij(3)**2, &
-                     xij(1) * xij(2), xij(1) * xij(3), xij(2) * xij(3)]
-          mi = mi + vj * xx
-          mm(:, j) = mm(:, j) + vi * xx
+          ! L_i g and L_j g (L symmetric: xx, yy, zz, xy, xz, yz)
+          lgi = [li(1) * g(1) + li(4) * g(2) + li(5) * g(3), &
+                 li(4) * g(1) + li(2) * g(2) + li(6) * g(3), &
+                 li(5) * g(1) + li(6) * g(2) + li(3) * g(3)]
+          if (present(lmat)) then
+            lgj = sym_times(lmat(:, j), g)
+          else
+            lgj = sym_times(l_own(:, j), g)
+          end if
+        end if
+        ! (E1): the pair's velocity divergence u_ji . g, for i and for j
+        ! (grad_j W_ji = -g, u_ij = -u_ji); renormalised u_ji . L_i g and
+        ! u_ji . L_j g, exact for linear velocity fields
+        if (renorm_div) then
+          div_i = uji(1) * lgi(1) + uji(2) * lgi(2) + uji(3) * lgi(3)
+          div_j = uji(1) * lgj(1) + uji(2) * lgj(2) + uji(3) * lgj(3)
+        else
+          div_i = uji(1) * g(1) + uji(2) * g(2) + uji(3) * g(3)
+          div_j = div_i
         end if
         ! (E2): (x_j - x_i) . g / r^2 = -F, so the first part of psi . g is
         ! -2 (rho_j - rho_i) F; psi_ji = psi_ij and grad_j W_ji = -g.
         dterm = -2 * (rho(j) - rhoi) * f
         if (antuono) dterm = dterm - sum((grad_rho(:, i) + grad_rho(:, j)) * g)
         dterm = diff_coef * dterm
-        drho_i = drho_i + (-rhoi * div + dterm) * vj
-        drho(j) = drho(j) + (-rho(j) * div - dterm) * vi
+        drho_i = drho_i + (-rhoi * div_i + dterm) * vj
+        drho(j) = drho(j) + (-rho(j) * div_j - dterm) * vi
         ! (E4) + (E5): du_i = A V_j/rho_i g, du_j = -A V_i/rho_j g, with
         ! A = -(p_i + p_j) + the viscous term
         xu = -(uji(1) * xij(1) + uji(2) * xij(2) + uji(3) * xij(3))   ! u_ji . (x_j - x_i)
-        if (corrected) then
-          ! (section 5): (p_j - p_i) g V_j for i, (p_i - p_j)(-g) V_i for j;
-          ! (E4) apart: (p_i + p_j) g V_j for i, (p_i + p_j)(-g) V_i for j
-          dp = pf(j) - pf(i)
-          gp_i = gp_i + (dp * vj) * g
-          gp(:, j) = gp(:, j) + (dp * vi) * g
-          sp_i = sp_i + ((pi_ + p(j)) * vj) * g
-          sp(:, j) = sp(:, j) - ((pi_ + p(j)) * vi) * g
-          a = 0
-        else
-          a = -(pi_ + p(j))
-        end if
+        pp = pi_ + p(j)
+        a = 0
+        if (.not. corrected) a = -pp
         select case (prm%viscosity)
         case (VISC_DELTA)
           a = a + coef_visc * xu / r2
@@ -422,48 +422,35 @@ contains
         if (tensile) a = a - rhoi * rho(j) * (rt(i) + rt(j)) * (wl(l) * inv_wdx)**prm%tensile_n
         du_i = du_i + (a * vj * iri) * g
         du(:, j) = du(:, j) - (a * vi * irj) * g
+        if (corrected) then
+          ! (section 5): -(1/rho_i) (p_j - p_i) L_i g V_j inside the fluid,
+          ! -(1/rho_i) (p_i + p_j) g V_j (E4) near the surface; for j,
+          ! -(1/rho_j) (p_i - p_j) L_j (-g) V_i or +(1/rho_j) (p_i + p_j) g V_i
+          dp = pf(j) - pf(i)
+          wj = wc(j)
+          du_i = du_i - (vj * iri) * ((wi * dp) * lgi + ((1 - wi) * pp) * g)
+          du(:, j) = du(:, j) + (vi * irj) * (((1 - wj) * pp) * g - (wj * dp) * lgj)
+        end if
       end do
       ! the terms from partners earlier in canonical order are already in
       ! drho(i), du(:, i): the row's own sum comes after them
       drho(i) = drho(i) + drho_i
       du(:, i) = du(:, i) + du_i
-      if (corrected) then
-        gp(:, i) = gp(:, i) + gp_i
-        sp(:, i) = sp(:, i) + sp_i
-      end if
-      if (renorm_div) tu(:, i) = tu(:, i) + tu_i(1:nt)
-      if (renorm) mm(:, i) = mm(:, i) + mi
     end do
-    ! the corrected operators, per particle: L_i = M_i^-1 (I where M_i is
-    ! nearly singular); the corrected pressure gradient where lambda_i >=
-    ! LAMBDA_NEAR, (E4) elsewhere; div_i = Sum_a (L_i Sum_j V_j g u_ji,a)_a
-    if (renorm) then
-      do i = 1, n
-        mi = mm(:, i)
-        lam = sym_min_eigenvalue(prm%dim, mi)
-        inv = 0
-        do l = 1, prm%dim
-          inv(l, l) = 1
-        end do
-        if (lam >= LAMBDA_MIN) call invert_sym(prm%dim, mi, inv, det)
-        if (corrected) then
-          if (lam >= LAMBDA_NEAR) then
-            du(:, i) = du(:, i) - inv_rho(i) * matmul(inv, gp(:, i))
-          else
-            du(:, i) = du(:, i) - inv_rho(i) * sp(:, i)
-          end if
-        end if
-        if (renorm_div) then
-          lt = 0
-          lt(1:prm%dim, 1:prm%dim) = matmul(inv(1:prm%dim, 1:prm%dim), &
-                                            reshape(tu(:, i), [prm%dim, prm%dim]))
-          drho(i) = drho(i) - rho(i) * (lt(1, 1) + lt(2, 2) + lt(3, 3))
-        end if
-      end do
-    end if
     ! halo slots hold partial sums: their owners compute the real values
     drho(n + 1:ntot) = 0
     du(:, n + 1:ntot) = 0
+
+  contains
+
+    pure function sym_times(ls, v) result(w)
+      real(wp), intent(in) :: ls(6), v(3)
+      real(wp) :: w(3)
+      w = [ls(1) * v(1) + ls(4) * v(2) + ls(5) * v(3), &
+           ls(4) * v(1) + ls(2) * v(2) + ls(6) * v(3), &
+           ls(5) * v(1) + ls(6) * v(2) + ls(3) * v(3)]
+    end function sym_times
+
   end subroutine rhs_evaluate
 
   !> (E8) Particle shifting of the delta-plus-SPH (Sun et al. 2017): the

@@ -35,6 +35,9 @@ module solver
     !> (E9) the free-surface indicator lambda_i from the first pass (one
     !> row, so that the halo exchange of fields serves it)
     real(wp), allocatable :: lambda(:, :)
+    !> L_i = M_i^-1 of the first pass (xx, yy, zz, xy, xz, yz), reused by
+    !> the renormalised operators of the second
+    real(wp), allocatable :: lmat(:, :)
     !> (E8) particle shifting after each step: on/off, the spacing dx of
     !> W(dx), the shifts of the last step and the largest of them (global)
     logical :: shifting = .false.
@@ -85,12 +88,12 @@ contains
     if (allocated(s%drho)) then
       if (size(s%drho) >= cap) return
       deallocate(s%drho, s%du, s%grad_rho, s%xs, s%us, s%rhos, s%xa, s%ua, s%rhoa, s%lambda, &
-                 s%dr)
+                 s%lmat, s%dr)
     end if
     allocate(s%drho(cap), s%du(3, cap), s%grad_rho(3, cap))
     allocate(s%xs(3, cap), s%us(3, cap), s%rhos(cap), s%xa(3, cap), s%ua(3, cap), s%rhoa(cap))
-    allocate(s%lambda(1, cap), s%dr(3, cap))
-    s%drho = 0; s%du = 0; s%grad_rho = 0; s%lambda = 0; s%dr = 0
+    allocate(s%lambda(1, cap), s%lmat(6, cap), s%dr(3, cap))
+    s%drho = 0; s%du = 0; s%grad_rho = 0; s%lambda = 0; s%lmat = 0; s%dr = 0
   end subroutine ensure_capacity
 
   !> Re-balances the decomposition when needed (first call, or imbalance
@@ -188,10 +191,10 @@ contains
       if (first_pass) then
         if (antuono) then
           call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%nl, &
-                                   s%lambda(1, :), grad_rho=s%grad_rho)
+                                   s%lambda(1, :), lmat=s%lmat, grad_rho=s%grad_rho)
         else
           call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%nl, &
-                                   s%lambda(1, :))
+                                   s%lambda(1, :), lmat=s%lmat)
         end if
         t0 = wall_time()
         if (antuono) call halo_refresh_field(s%halo, env, pt%n, s%grad_rho)
@@ -199,9 +202,9 @@ contains
         if (corrected) call halo_refresh_field(s%halo, env, pt%n, s%lambda)
         s%comm_time = s%comm_time + (wall_time() - t0)
       end if
-      if (corrected) then
+      if (first_pass) then
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
-                          s%nl, s%drho, s%du, s%lambda(1, :))
+                          s%nl, s%drho, s%du, s%lambda(1, :), s%lmat)
       else
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
                           s%nl, s%drho, s%du)

@@ -143,3 +143,33 @@ def test_square_vortical_parallel():
     for k in FIELDS:
         assert np.array_equal(a[k].view(np.int64), b[k].view(np.int64)), k
     assert np.max(np.abs(a["vorticity"] - b["vorticity"])) < 1e-12 * np.max(np.abs(a["vorticity"]))
+
+
+def test_ellipsoid3d_one_and_two_ranks():
+    # 3D: about 4,000 particles on spherical shells (h = 1.6 dx, the input
+    # file's settings) to t A0 = 1, the paper's end time, on 1 and 2 ranks:
+    # the same particles bit for bit, and errors against the exact solution
+    # (X1, X2) within 1.5x of those measured: largest semi-axis 0.160 %,
+    # RMS position 0.537 %, RMS velocity 0.710 %, KE change -0.361 %
+    from common import read_timeseries
+    AX3, POS3, VEL3, KE3 = 0.0024, 0.0081, 0.0107, 0.0055
+    states = []
+    for np_ in (1, 2):
+        d = scratch(f"ell{np_}") / "run"
+        p = run_sph(["input/ellipsoid3d.nml", "particles.n=4000", "output.dt=1",
+                     f"output.dir={d}"], np=np_)
+        assert p.returncode == 0, p.out
+        states.append(final_state(d))
+        ts = read_timeseries(d / "timeseries.csv")
+        assert abs(ts["time"][-1] - 1.0) < 1e-12
+        axes = max(abs(v[-1]) for k, v in ts.items()
+                   if k.startswith("semi_axis_") and k.endswith("_error"))
+        vel, pos = ts["rms_velocity_error"][-1], ts["rms_position_error"][-1]
+        dke = ts["kinetic_energy"][-1] / ts["kinetic_energy"][0] - 1
+        print(f"    {np_} rank(s): axis {100 * axes:.3f} %  pos {100 * pos:.3f} %  "
+              f"vel {100 * vel:.3f} %  KE {100 * dke:.3f} %")
+        assert axes < AX3 and pos < POS3 and vel < VEL3 and abs(dke) < KE3, (axes, pos, vel, dke)
+    (a, ta, na), (b, tb, nb) = states
+    assert na == nb and ta == tb
+    for k in FIELDS:
+        assert np.array_equal(a[k].view(np.int64), b[k].view(np.int64)), k
