@@ -13,7 +13,7 @@ module neighbours
   use kinds, only: wp, i8
   implicit none
   private
-  public :: neighbour_list_t, cell_sort_permutation, neighbour_build
+  public :: neighbour_list_t, cell_sort_permutation, neighbour_build, neighbour_counts
 
   !> Half list in compressed rows, in canonical order (neighbour_build):
   !> row k belongs to particle row(k) (owned, or a halo copy when > n) and
@@ -372,5 +372,31 @@ contains
       end do
     end do
   end subroutine sort_cells_by_id
+
+  !> Neighbours of the owned particles 1..n: `listed` counts each listed
+  !> pair once for each owned particle in it, `in_range` the same for the
+  !> pairs closer than sqrt(s2) at positions x.  Summed over the ranks and
+  !> divided by the number of particles, they are the neighbours per
+  !> particle in the list and within the kernel support (a pair across two
+  !> ranks is listed on both, once as owned on each).
+  subroutine neighbour_counts(nl, n, x, s2, listed, in_range)
+    type(neighbour_list_t), intent(in) :: nl
+    integer, intent(in) :: n
+    real(wp), intent(in) :: x(:, :), s2
+    integer(i8), intent(out) :: listed, in_range
+    integer :: kk, i, j, w
+    integer(i8) :: k
+    listed = 0
+    in_range = 0
+    do kk = 1, nl%n_rows
+      i = nl%row(kk)
+      do k = nl%start(kk), nl%start(kk + 1) - 1
+        j = nl%nbr(k)
+        w = merge(1, 0, i <= n) + merge(1, 0, j <= n)
+        listed = listed + w
+        if (sum((x(:, i) - x(:, j))**2) < s2) in_range = in_range + w
+      end do
+    end do
+  end subroutine neighbour_counts
 
 end module neighbours

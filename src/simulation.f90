@@ -6,6 +6,7 @@ module simulation
   use kinds, only: wp, i8
   use particles, only: particles_t, particles_permute
   use memory_usage, only: peak_memory_mb
+  use neighbours, only: neighbour_counts
   use config, only: config_t, config_dim, config_echo
   use kernels, only: kernel_init, kernel_kind_of
   use eos, only: eos_init, EOS_LINEAR, EOS_TAIT
@@ -392,16 +393,19 @@ contains
     type(solver_t), intent(in) :: s
     type(run_t), intent(in) :: run
     real(wp), intent(in) :: dx, dt
-    real(wp) :: pairs
-    pairs = par_sum(env, real(s%nl%n_pairs, wp))
+    real(wp) :: listed, in_range
+    integer(i8) :: n_listed, n_in_range
+    call neighbour_counts(s%nl, s%parts%n, s%parts%x, s%rhs%kernel%support**2, n_listed, &
+                          n_in_range)
+    listed = par_sum(env, real(n_listed, wp)) / max(run%n_global, 1_i8)
+    in_range = par_sum(env, real(n_in_range, wp)) / max(run%n_global, 1_i8)
     if (env%rank /= 0) return
     write(output_unit, '(a)') 'sph: case ' // trim(cfg%run%case_name) // ', output in ' // run%dir
     write(output_unit, '(a,i0,a,i0,a,es10.3,a,es10.3,a,f5.2,a)') '  particles ', run%n_global, &
       '  dim ', s%parts%dim, '  dx ', dx, '  h ', s%rhs%kernel%h, '  (h/dx ', &
       cfg%particles%h_over_dx, ')'
-    write(output_unit, '(a,f8.2,a,f6.4,a,f8.1,a)') '  c0 ', s%rhs%c0, '  Mach ', &
-      s%umax / s%rhs%c0, '  pairs per particle within list radius ', &
-      2 * pairs / run%n_global, ''
+    write(output_unit, '(a,f8.2,a,f6.4,a,f8.1,a,f8.1,a)') '  c0 ', s%rhs%c0, '  Mach ', &
+      s%umax / s%rhs%c0, '  neighbours per particle ', in_range, ' (', listed, ' in the list)'
     write(output_unit, '(a)') '  kernel ' // trim(cfg%numerics%kernel) // ', integrator ' // &
       trim(cfg%numerics%integrator) // ', viscosity ' // trim(cfg%numerics%viscosity) // &
       ', diffusion ' // trim(cfg%numerics%diffusion)
@@ -436,20 +440,26 @@ contains
     type(run_t), intent(in) :: run
     integer, intent(in) :: steps
     real(wp), intent(in) :: wall
-    real(wp) :: comm, mem_max, mem_total
+    real(wp) :: comm, mem_max, mem_total, listed, in_range
+    integer(i8) :: n_listed, n_in_range
     comm = par_max(env, s%comm_time)
     mem_max = par_max(env, peak_memory_mb())
     mem_total = par_sum(env, peak_memory_mb())
+    call neighbour_counts(s%nl, s%parts%n, s%parts%x, s%rhs%kernel%support**2, n_listed, &
+                          n_in_range)
+    listed = par_sum(env, real(n_listed, wp)) / max(run%n_global, 1_i8)
+    in_range = par_sum(env, real(n_in_range, wp)) / max(run%n_global, 1_i8)
     if (env%rank /= 0) return
     write(output_unit, '(a,i0,a,f10.2,a,es10.3,a,es10.3,a,i0,a)') 'done: ', steps, ' steps in ', &
       wall, ' s, ', wall / max(steps, 1), ' s/step, ', &
       real(run%n_global, wp) * steps / max(wall, 1e-9_wp), ' particle-steps/s on ', &
       env%nranks, ' rank(s)'
-    write(output_unit, '(a,i0,a,i0,a,i0,a,f8.1,a,f6.2,a,f9.1,a,f9.1,a)') &
+    write(output_unit, '(a,i0,a,i0,a,i0,a,f6.2,a,f9.1,a,f9.1,a)') &
       '  right-hand sides ', s%n_evaluations, ', list rebuilds ', s%n_rebuilds, &
-      ', snapshots ', run%n_snapshots, ', pairs per particle ', &
-      real(s%nl%n_pairs, wp) * 2 / max(s%parts%n, 1), ' (skin ', s%skin / s%rhs%kernel%h, &
+      ', snapshots ', run%n_snapshots, ' (skin ', s%skin / s%rhs%kernel%h, &
       ' h), peak memory ', mem_max, ' MB per rank (max), ', mem_total, ' MB in all'
+    write(output_unit, '(a,f8.1,a,f8.1,a)') '  neighbours per particle: ', listed, &
+      ' in the list, ', in_range, ' within the kernel support'
 
     if (env%nranks > 1) write(output_unit, '(a,f6.3,a,f6.3,a,i0,a,i0,a,f5.1,a)') &
       '  imbalance (max/mean particles) mean ', run%imb_sum / max(run%imb_n, 1), ', max ', &

@@ -52,12 +52,13 @@ def test_each_numerics_option_runs_and_is_accurate():
 def test_ellipsoid3d_short_run():
     # 3D from the same code: about 4,000 particles on spherical shells (16
     # across the diameter, h = 1.6 dx as in input/ellipsoid3d.nml) to
-    # t A0 = 0.2, the input file's operators.  Measured: RMS velocity error
-    # 0.292 %, KE change -0.236 %, semi-axes within 0.082 % (the standard
-    # operators: 1.56 %, -0.42 %, 0.057 %); thresholds 1.5x.
+    # t A0 = 0.2, the input file's standard operators.  Measured: RMS
+    # velocity error 1.56 %, KE change -0.42 %, semi-axes within 0.057 %
+    # (renormalised divergence and higher-order gradient: 0.292 %, -0.236 %,
+    # 0.082 %); thresholds 1.5x.
     vel, dke, axis = errors([], n=4000, t_end=0.2, case="input/ellipsoid3d.nml")
     print(f"    ellipsoid3d: vel {100 * vel:.3f} %  KE {100 * dke:.3f} %  axis {100 * axis:.3f} %")
-    assert vel < 0.0044 and abs(dke) < 0.0035 and axis < 0.0012, (vel, dke, axis)
+    assert vel < 0.0235 and abs(dke) < 0.0063 and axis < 0.00086, (vel, dke, axis)
 
 
 def test_renormalised_operators_beat_standard():
