@@ -377,9 +377,7 @@ contains
         uji = u(:, j) - u(:, i)
         if (renorm) then
           ! L_i g and L_j g (L symmetric: xx, yy, zz, xy, xz, yz)
-          lgi = [li(1) * g(1) + li(4) * g(2) + li(5) * g(3), &
-                 li(4) * g(1) + li(2) * g(2) + li(6) * g(3), &
-                 li(5) * g(1) + li(6) * g(2) + li(3) * g(3)]
+          lgi = sym_times(li, g)
           if (present(lmat)) then
             lgj = sym_times(lmat(:, j), g)
           else
@@ -443,6 +441,7 @@ contains
 
   contains
 
+    !> L v for a symmetric L stored as (xx, yy, zz, xy, xz, yz)
     pure function sym_times(ls, v) result(w)
       real(wp), intent(in) :: ls(6), v(3)
       real(wp) :: w(3)
