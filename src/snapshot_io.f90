@@ -140,7 +140,7 @@ contains
     type(xdmf_index_t), intent(inout), optional :: index
 
     integer(i8) :: n8, offset, n_global
-    integer(hid_t) :: fapl, file_id, dxpl
+    integer(hid_t) :: file_id, dxpl
     integer :: err, k, rank, nextra, counts(2)
     character(len=:), allocatable :: tmp, rel
     logical :: closed
@@ -176,25 +176,7 @@ contains
     closed = .false.
     ok = .false.
     io: block
-      call h5pcreate_f(H5P_FILE_ACCESS_F, fapl, err)
-      if (err < 0) then
-        errmsg = 'HDF5: cannot create a file access property list'
-        exit io
-      end if
-      call h5pset_fapl_mpio_f(fapl, comm%MPI_VAL, MPI_INFO_NULL%MPI_VAL, err)
-      if (err >= 0) call h5fcreate_f(tmp, H5F_ACC_TRUNC_F, file_id, err, access_prp=fapl)
-      call h5pclose_f(fapl, k)
-      if (err < 0) then
-        file_id = -1
-        errmsg = 'HDF5: cannot create "' // tmp // '"'
-        exit io
-      end if
-      call h5pcreate_f(H5P_DATASET_XFER_F, dxpl, err)
-      if (err >= 0) call h5pset_dxpl_mpio_f(dxpl, H5FD_MPIO_COLLECTIVE_F, err)
-      if (err < 0) then
-        errmsg = 'HDF5: cannot set collective transfers'
-        exit io
-      end if
+      if (.not. open_parallel(tmp, .true., comm, file_id, dxpl, errmsg)) exit io
 
       if (.not. write_real(file_id, dxpl, 'position', x, size(x, 1), dim)) exit io
       if (.not. write_real(file_id, dxpl, 'velocity', u, size(u, 1), dim)) exit io
@@ -395,7 +377,7 @@ contains
     character(len=:), allocatable, intent(out) :: errmsg
     logical, intent(in), optional :: header_only
 
-    integer(hid_t) :: fapl, file_id, dxpl, dset, space
+    integer(hid_t) :: file_id, dxpl, dset, space
     integer(hsize_t) :: dims(2), maxdims(2), nlinks_h, j
     integer(size_t) :: name_size
     integer :: err, rank, nranks, k, ndims, nattr, storage, max_corder, tclass, version
@@ -425,25 +407,7 @@ contains
         errmsg = 'no file "' // filename // '"'
         exit io
       end if
-      call h5pcreate_f(H5P_FILE_ACCESS_F, fapl, err)
-      if (err < 0) then
-        errmsg = 'HDF5: cannot create a file access property list'
-        exit io
-      end if
-      call h5pset_fapl_mpio_f(fapl, comm%MPI_VAL, MPI_INFO_NULL%MPI_VAL, err)
-      if (err >= 0) call h5fopen_f(filename, H5F_ACC_RDONLY_F, file_id, err, access_prp=fapl)
-      call h5pclose_f(fapl, k)
-      if (err < 0) then
-        file_id = -1
-        errmsg = 'cannot open snapshot "' // filename // '"'
-        exit io
-      end if
-      call h5pcreate_f(H5P_DATASET_XFER_F, dxpl, err)
-      if (err >= 0) call h5pset_dxpl_mpio_f(dxpl, H5FD_MPIO_COLLECTIVE_F, err)
-      if (err < 0) then
-        errmsg = 'HDF5: cannot set collective transfers'
-        exit io
-      end if
+      if (.not. open_parallel(filename, .false., comm, file_id, dxpl, errmsg)) exit io
 
       ! root attributes
       if (.not. read_attr_real(file_id, 'time', snap%time, errmsg)) exit io
@@ -1140,5 +1104,52 @@ contains
       p = c_loc(dummy)
     end if
   end function loc_i1
+
+  !> Opens `path` for parallel I/O on `comm` (every rank calls it): created
+  !> (truncated) when `create`, else read-only; dxpl gets collective
+  !> transfers.  False with errmsg set on failure; file_id and dxpl are -1
+  !> unless opened (the caller closes what is open).
+  logical function open_parallel(path, create, comm, file_id, dxpl, errmsg) result(ok)
+    character(len=*), intent(in) :: path
+    logical, intent(in) :: create
+    type(MPI_Comm), intent(in) :: comm
+    integer(hid_t), intent(out) :: file_id, dxpl
+    character(len=:), allocatable, intent(inout) :: errmsg
+    integer(hid_t) :: fapl
+    integer :: err, err_close
+    ok = .false.
+    file_id = -1
+    dxpl = -1
+    call h5pcreate_f(H5P_FILE_ACCESS_F, fapl, err)
+    if (err < 0) then
+      errmsg = 'HDF5: cannot create a file access property list'
+      return
+    end if
+    call h5pset_fapl_mpio_f(fapl, comm%MPI_VAL, MPI_INFO_NULL%MPI_VAL, err)
+    if (err >= 0) then
+      if (create) then
+        call h5fcreate_f(path, H5F_ACC_TRUNC_F, file_id, err, access_prp=fapl)
+      else
+        call h5fopen_f(path, H5F_ACC_RDONLY_F, file_id, err, access_prp=fapl)
+      end if
+    end if
+    call h5pclose_f(fapl, err_close)
+    if (err < 0) then
+      file_id = -1
+      if (create) then
+        errmsg = 'HDF5: cannot create "' // path // '"'
+      else
+        errmsg = 'cannot open snapshot "' // path // '"'
+      end if
+      return
+    end if
+    call h5pcreate_f(H5P_DATASET_XFER_F, dxpl, err)
+    if (err >= 0) call h5pset_dxpl_mpio_f(dxpl, H5FD_MPIO_COLLECTIVE_F, err)
+    if (err < 0) then
+      errmsg = 'HDF5: cannot set collective transfers'
+      return
+    end if
+    ok = .true.
+  end function open_parallel
 
 end module snapshot_io
