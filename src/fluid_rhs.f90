@@ -275,8 +275,8 @@ contains
   !>   standard sum is not near the free surface, where it makes the density
   !>   drift).
   !> L_i = M_i^-1 (E3; I where lambda_i < LAMBDA_MIN) comes from the first
-  !> pass (rhs_renormalisation: lmat) or, when lmat is not given, from one
-  !> done here; each pair then uses L_i g for i and L_j g for j, so the
+  !> pass (rhs_renormalisation: lmat), which the renormalised operators
+  !> need; each pair then uses L_i g for i and L_j g for j, so the
   !> corrected terms go into the same canonical-order sums as the others.
   !> For the pressure gradient, lambda must hold the free-surface indicator
   !> of the owned particles and halo copies (rhs_renormalisation, then the
@@ -295,7 +295,7 @@ contains
     real(wp) :: div_i, div_j, dterm, a, coef_visc, diff_coef, xu, vi, vj, iri, irj
     real(wp) :: drho_i, du_i(3), rhoi, pi_, pp, dp, li(6), lgi(3), lgj(3), wi, wj
     real(wp), allocatable :: vol(:), inv_rho(:), xl(:, :), r2l(:), fl(:), rt(:), wl(:)
-    real(wp), allocatable :: pf(:), wc(:), lam_own(:), l_own(:, :)
+    real(wp), allocatable :: pf(:), wc(:)
     real(wp) :: inv_wdx
     integer, allocatable :: jl(:)
     integer :: i, j, l, nn, kk
@@ -322,16 +322,14 @@ contains
       rt = prm%tensile_eps * max(0.0_wp, -p(1:ntot)) * inv_rho**2
       inv_wdx = 1 / kernel_w(prm%kernel, prm%tensile_dx)
     end if
-    ! The corrected operators use L_i g in place of g: L_i from the first
-    ! pass (lmat), or from one done here.  Halo slots of L are zero: the
-    ! terms they give to halo copies are discarded below anyway.
+    ! The corrected operators use L_i g in place of g, L_i from the first
+    ! pass (lmat).  Halo slots of L are zero: the terms they give to halo
+    ! copies are discarded below anyway.
     corrected = prm%pressure_gradient == PGRAD_HIGHER_ORDER
     renorm_div = prm%divergence == DIV_RENORMALISED
     renorm = corrected .or. renorm_div
-    if (renorm .and. .not. present(lmat)) then
-      allocate(lam_own(ntot), l_own(6, ntot))
-      call rhs_renormalisation(prm, n, ntot, x, rho, m, nl, lam_own, l_own)
-    end if
+    if (renorm .and. .not. present(lmat)) &
+      error stop 'rhs_evaluate: the renormalised operators need lmat (rhs_renormalisation)'
     ! (section 5): the pressure with p = 0 on the free surface (pf), and the
     ! weight wc = 1 of the consistent form inside the fluid (lambda >=
     ! LAMBDA_NEAR), 0 (the conservative E4) on and near the surface
@@ -356,13 +354,7 @@ contains
       iri = inv_rho(i)
       vi = vol(i)
       pi_ = p(i)
-      if (renorm) then
-        if (present(lmat)) then
-          li = lmat(:, i)
-        else
-          li = l_own(:, i)
-        end if
-      end if
+      if (renorm) li = lmat(:, i)
       if (corrected) wi = wc(i)
       drho_i = 0
       du_i = 0
@@ -378,11 +370,7 @@ contains
         if (renorm) then
           ! L_i g and L_j g (L symmetric: xx, yy, zz, xy, xz, yz)
           lgi = sym_times(li, g)
-          if (present(lmat)) then
-            lgj = sym_times(lmat(:, j), g)
-          else
-            lgj = sym_times(l_own(:, j), g)
-          end if
+          lgj = sym_times(lmat(:, j), g)
         end if
         ! (E1): the pair's velocity divergence u_ji . g, for i and for j
         ! (grad_j W_ji = -g, u_ij = -u_ji); renormalised u_ji . L_i g and

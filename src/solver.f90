@@ -7,7 +7,7 @@ module solver
   use affine_motion, only: affine_fit, sigma_min
   use eos, only: eos_t, eos_pressure
   use fluid_rhs, only: rhs_params_t, rhs_renormalisation, rhs_evaluate, rhs_shift, &
-                       DIFF_ANTUONO, VISC_NONE, PGRAD_HIGHER_ORDER
+                       DIFF_ANTUONO, VISC_NONE, PGRAD_HIGHER_ORDER, DIV_RENORMALISED
   use parallel_env, only: parallel_env_t, par_max, par_min, wall_time
   use domain, only: domain_t, domain_balance, domain_imbalance, DECOMP_SLAB, DECOMP_METIS
   use halo_exchange, only: halo_t, migrate, halo_build, halo_refresh, halo_refresh_field
@@ -172,7 +172,7 @@ contains
   !> diffusion; E9: the free-surface indicator for the higher-order pressure
   !> gradient, which imposes p = 0 on free-surface partners), its halo
   !> values exchanged in turn, then (E1-E7).  The renormalised divergence
-  !> needs no first pass: rhs_evaluate builds L_i with the other sums.
+  !> needs the first pass too, for L_i.
   subroutine solver_evaluate(s, env)
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
@@ -181,7 +181,7 @@ contains
     logical :: antuono, corrected, first_pass
     antuono = s%rhs%diffusion == DIFF_ANTUONO
     corrected = s%rhs%pressure_gradient == PGRAD_HIGHER_ORDER
-    first_pass = antuono .or. corrected
+    first_pass = antuono .or. corrected .or. s%rhs%divergence == DIV_RENORMALISED
     associate(pt => s%parts)
       t0 = wall_time()
       call halo_refresh(s%halo, env, pt)
@@ -201,8 +201,6 @@ contains
         ! p = 0 on free-surface partners: their lambda is needed too
         if (corrected) call halo_refresh_field(s%halo, env, pt%n, s%lambda)
         s%comm_time = s%comm_time + (wall_time() - t0)
-      end if
-      if (first_pass) then
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
                           s%nl, s%drho, s%du, s%lambda(1, :), s%lmat)
       else

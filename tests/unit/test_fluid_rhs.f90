@@ -390,7 +390,7 @@ contains
       call rhs_renormalisation(c%prm, c%n, c%n, c%x, c%rho, c%m, c%nl, lambda, lmat)
       ones = 1
       call rhs_evaluate(c%prm, c%n, c%n, c%x, c%u, c%rho, c%m, c%p, c%g, c%nl, c%drho, c%du, &
-                        ones)
+                        ones, lmat)
       checked = 0
       do i = 1, c%n
         if (lambda(i) < LAMBDA_NEAR) cycle
@@ -425,7 +425,7 @@ contains
     allocate(lmat(6, c%n), lambda(c%n))
     call rhs_renormalisation(c%prm, c%n, c%n, c%x, c%rho, c%m, c%nl, lambda, lmat)
     call rhs_evaluate(c%prm, c%n, c%n, c%x, c%u, c%rho, c%m, c%p, c%g, c%nl, c%drho, c%du, &
-                      lambda)
+                      lambda, lmat)
     inner = 0
     surface = 0
     do i = 1, c%n
@@ -463,11 +463,11 @@ contains
     c%prm%pressure_gradient = PGRAD_HIGHER_ORDER
     call rhs_renormalisation(c%prm, c%n, c%n, c%x, c%rho, c%m, c%nl, lambda, lmat)
     call rhs_evaluate(c%prm, c%n, c%n, c%x, c%u, c%rho, c%m, c%p, c%g, c%nl, c%drho, c%du, &
-                      lambda)
+                      lambda, lmat)
     du0(:, :) = c%du
     where (lambda < LAMBDA_SURFACE) c%p = c%p + 10 * (r - 0.5_wp)
     call rhs_evaluate(c%prm, c%n, c%n, c%x, c%u, c%rho, c%m, c%p, c%g, c%nl, c%drho, c%du, &
-                      lambda)
+                      lambda, lmat)
     inner = count(lambda >= LAMBDA_NEAR)
     call assert_true(inner > c%n / 3 .and. count(lambda < LAMBDA_SURFACE) > 4 * 20, &
                      'the box has an inside and a surface')
@@ -503,7 +503,7 @@ contains
       allocate(lmat(6, c%n), lambda(c%n))
       call rhs_renormalisation(c%prm, c%n, c%n, c%x, c%rho, c%m, c%nl, lambda, lmat)
       call rhs_evaluate(c%prm, c%n, c%n, c%x, c%u, c%rho, c%m, c%p, c%g, c%nl, c%drho, c%du, &
-                        lambda)
+                        lambda, lmat)
       checked = 0
       do i = 1, c%n
         if (lambda(i) < LAMBDA_MIN) cycle
@@ -756,7 +756,7 @@ contains
       lo = minval(x, dim=2)
       call neighbour_build(nl, dim, ntot, ntot, x, id, radius, lo)
       call rhs_renormalisation(prm, ntot, ntot, x, rho, m, nl, lambda, lmat)
-      call rhs_evaluate(prm, ntot, ntot, x, u, rho, m, p, g, nl, drho, du, lambda)
+      call rhs_evaluate(prm, ntot, ntot, x, u, rho, m, p, g, nl, drho, du, lambda, lmat)
       call rhs_shift(prm, ntot, ntot, x, rho, m, nl, coef, prm%tensile_dx, dr, lam_s)
       call assert_true(count(lambda >= LAMBDA_NEAR) > ntot / 20 .and. &
                        count(lambda < LAMBDA_SURFACE) > ntot / 100, 'all zones present')
@@ -787,7 +787,7 @@ contains
       call rhs_renormalisation(prm, n_own, nt, x(:, sel), rho(sel), m(sel), nl, lap, lp)
       lap(n_own + 1:nt) = lambda(sel(n_own + 1:nt))      ! the halo exchange of lambda
       call rhs_evaluate(prm, n_own, nt, x(:, sel), u(:, sel), rho(sel), m(sel), p(sel), &
-                        g(:, sel), nl, drp, dup, lap)
+                        g(:, sel), nl, drp, dup, lap, lp)
       call rhs_shift(prm, n_own, nt, x(:, sel), rho(sel), m(sel), nl, coef, prm%tensile_dx, &
                      drs, las)
       do k = 1, n_own
