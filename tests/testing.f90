@@ -6,13 +6,13 @@
 !> Pass lines come from rank 0 only; a failing rank prints its own context.
 module testing
   use, intrinsic :: iso_fortran_env, only: output_unit, error_unit
-  use kinds, only: wp
+  use kinds, only: wp, i8
   use mpi_f08, only: MPI_Comm, MPI_Comm_rank, MPI_Comm_size, MPI_Allreduce, &
                      MPI_IN_PLACE, MPI_INTEGER, MPI_MAX
   implicit none
   private
   public :: testing_init, testing_summary, run_test, skip_test, test_comm
-  public :: assert_true, assert_equal, assert_relatively_equal
+  public :: assert_true, assert_equal, assert_relatively_equal, same_bits
 
   abstract interface
     subroutine test_proc()
@@ -189,5 +189,13 @@ contains
       end if
     end do
   end subroutine assert_rel_real_array
+
+  !> Bit-for-bit equality of two real arrays (the decomposition-independence
+  !> tests ask for it, not for closeness).
+  pure logical function same_bits(a, b)
+    real(wp), intent(in) :: a(:), b(:)
+    same_bits = size(a) == size(b)
+    if (same_bits) same_bits = all(transfer(a, 1_i8, size(a)) == transfer(b, 1_i8, size(b)))
+  end function same_bits
 
 end module testing

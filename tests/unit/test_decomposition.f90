@@ -11,7 +11,7 @@ module test_decomposition
   use halo_exchange, only: halo_t, migrate, halo_build, halo_refresh
   use metis_partition, only: partition_graph
   use parallel_env, only: parallel_env_t, par_from_comm, par_sum, par_sum_array
-  use testing, only: run_test, assert_equal, assert_true, test_comm
+  use testing, only: run_test, assert_equal, assert_true, test_comm, same_bits
   implicit none
   private
   public :: suite_decomposition
@@ -128,11 +128,6 @@ contains
       deallocate(w, seen)
     end do
   end subroutine migration
-
-  pure logical function same_bits(a, b)
-    real(wp), intent(in) :: a(:), b(:)
-    same_bits = all(transfer(a, 1_i8, size(a)) == transfer(b, 1_i8, size(b)))
-  end function same_bits
 
   subroutine halo_slab()
     call check_halo(DECOMP_SLAB)

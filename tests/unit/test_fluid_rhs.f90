@@ -11,7 +11,7 @@ module test_fluid_rhs
                        DIFF_ANTUONO, PGRAD_STANDARD, PGRAD_HIGHER_ORDER, sym_min_eigenvalue, &
                        LAMBDA_MIN, LAMBDA_SURFACE, LAMBDA_NEAR, DIV_STANDARD, DIV_RENORMALISED
   use flow_diagnostics, only: free_surface_lambda
-  use testing, only: run_test, assert_equal, assert_true
+  use testing, only: run_test, assert_equal, assert_true, same_bits
   implicit none
   private
   public :: suite_fluid_rhs
@@ -798,11 +798,5 @@ contains
       end do
     end subroutine compare_piece
   end subroutine bitwise_pieces
-
-  !> Bit-for-bit equality of two real arrays.
-  pure logical function same_bits(a, b)
-    real(wp), intent(in) :: a(:), b(:)
-    same_bits = all(transfer(a, 1_i8, size(a)) == transfer(b, 1_i8, size(b)))
-  end function same_bits
 
 end module test_fluid_rhs

@@ -8,7 +8,7 @@ module test_neighbours
   use kernels, only: kernel_init, KERNEL_WENDLAND_C2
   use fluid_rhs, only: rhs_params_t, rhs_evaluate, rhs_density_gradient, DIFF_ANTUONO, &
                        VISC_DELTA
-  use testing, only: run_test, assert_equal, assert_true, test_comm
+  use testing, only: run_test, assert_equal, assert_true, test_comm, same_bits
   use mpi_f08, only: MPI_Comm_rank
   use, intrinsic :: iso_fortran_env, only: output_unit
   implicit none
@@ -338,12 +338,6 @@ contains
       end do
     end subroutine compare_piece
   end subroutine bitwise_pieces
-
-  !> Bit-for-bit equality of two real arrays.
-  pure logical function same_bits(a, b)
-    real(wp), intent(in) :: a(:), b(:)
-    same_bits = all(transfer(a, 1_i8, size(a)) == transfer(b, 1_i8, size(b)))
-  end function same_bits
 
   subroutine sort_permutation()
     real(wp), allocatable :: x(:, :)
