@@ -24,7 +24,12 @@ module case_base
 
   type, abstract :: case_t
     integer :: dim = 2
+    !> > 0: the set-up placed a first guess to be relaxed by the packing
+    !> (doc/packing.md) in the ball of this radius, after which
+    !> initial_state sets the physical state at the packed positions
+    real(wp) :: pack_radius = 0
   contains
+    procedure :: initial_state => no_initial_state
     procedure(setup_i), deferred :: setup
     procedure(columns_i), deferred :: columns
     procedure(sample_i), deferred :: sample
@@ -81,5 +86,18 @@ module case_base
       type(kernel_t), intent(in) :: kernel
     end subroutine summary_i
   end interface
+
+contains
+
+  !> The state at the current positions of particles of volume m/rho and
+  !> spacing dx, for cases that pack (none here).
+  subroutine no_initial_state(self, eos, dx, parts)
+    class(case_t), intent(inout) :: self
+    type(eos_t), intent(in) :: eos
+    real(wp), intent(in) :: dx
+    type(particles_t), intent(inout) :: parts
+    if (self%pack_radius > 0) error stop 'case_t: a case that packs must set its initial_state'
+    if (.false.) parts%n = parts%n + 0 * int(eos%c0 + dx)
+  end subroutine no_initial_state
 
 end module case_base

@@ -17,7 +17,7 @@ module case_stretching
   use exact_ellipse, only: ellipse_exact_t, ellipse_exact_init, ellipse_exact_at, &
                            ellipse_centre_pressure, ellipse_map, ellipse_velocity, &
                            ellipse_pressure
-  use placement, only: PLACE_RINGS, PLACE_LATTICE
+  use placement, only: PLACE_RINGS, PLACE_LATTICE, PLACE_PACKED
   use diagnostics, only: fitted_semi_axes, probe_pressure, kinetic_energy
   use parallel_env, only: parallel_env_t, par_sum_array
   use, intrinsic :: ieee_arithmetic, only: ieee_is_nan
@@ -32,6 +32,7 @@ module case_stretching
     real(wp) :: p0 = 0                  !< P(0), exact centre pressure at t = 0
     type(ellipse_exact_t) :: ex
     type(kernel_t) :: kernel            !< for the free-surface indicator in snapshots
+    real(wp) :: h_over_dx = 2
     ! running sums over samples (for the paper's time-averaged errors)
     integer :: n_samples = 0
     real(wp) :: sum_axis_err = 0, sum_pos_err = 0, sum_vel_err = 0, sum_p_err = 0
@@ -40,6 +41,7 @@ module case_stretching
     real(wp) :: axis_err(3) = 0, pos_err = 0, vel_err = 0, ke_exact = 0, ke_start = -1
   contains
     procedure :: setup => stretching_setup
+    procedure :: initial_state => stretching_initial_state
     procedure :: columns => stretching_columns
     procedure :: sample => stretching_sample
     procedure :: fields => stretching_fields
@@ -58,9 +60,15 @@ contains
     type(particles_t), intent(inout) :: parts
     real(wp), intent(out) :: dx
     real(wp), allocatable :: x(:, :), vol(:)
-    real(wp) :: p
-    integer :: i, np, place, kind
-    place = merge(PLACE_LATTICE, PLACE_RINGS, cfg%particles%placement == 'lattice')
+    integer :: i, np, place
+    select case (cfg%particles%placement)
+    case ('lattice')
+      place = PLACE_LATTICE
+    case ('packed')
+      place = PLACE_PACKED
+    case default
+      place = PLACE_RINGS
+    end select
     self%rho0 = cfg%physics%rho0
     self%rates = 0
     if (cfg%run%case_name == 'ellipsoid3d') then
@@ -74,29 +82,52 @@ contains
       self%a0 = cfg%circle2d%a0
       self%rates(1:2) = [-1.0_wp, 1.0_wp]
     end if
-    associate(st => self, dim => self%dim, radius => self%radius, a0 => self%a0, &
-              rho0 => self%rho0, n_target => cfg%particles%n)
-    call ellipse_exact_init(st%ex, dim, rho0, radius, a0 * st%rates(1:dim))
-    st%p0 = ellipse_centre_pressure(st%ex)
-    dx = ball_spacing(dim, radius, n_target, place)
-    call place_ball(dim, radius, dx, place, x, vol)
+    call ellipse_exact_init(self%ex, self%dim, self%rho0, self%radius, &
+                            self%a0 * self%rates(1:self%dim))
+    self%p0 = ellipse_centre_pressure(self%ex)
+    dx = ball_spacing(self%dim, self%radius, cfg%particles%n, place)
+    call place_ball(self%dim, self%radius, dx, place, x, vol)
     np = size(vol)
-    call particles_allocate(parts, dim, np)
+    ! packed: equal volumes |Omega|/N, dx the spacing that goes with them
+    if (place == PLACE_PACKED) then
+      dx = vol(1)**(1 / real(self%dim, wp))
+      self%pack_radius = self%radius
+    end if
+    call particles_allocate(parts, self%dim, np)
     parts%n = np
     do i = 1, np
       parts%x(:, i) = x(:, i)
-      parts%x0(:, i) = x(:, i)
-      parts%u(:, i) = a0 * st%rates * x(:, i)
-      p = st%p0 * (1 - sum(x(:, i)**2) / radius**2)
-      parts%p(i) = p
-      parts%rho(i) = eos_density(eos, p)
-      parts%m(i) = parts%rho(i) * vol(i)
+      parts%m(i) = vol(i)
+      parts%rho(i) = 1
       parts%id(i) = i
     end do
-    end associate
-    kind = kernel_kind_of(trim(cfg%numerics%kernel))
-    self%kernel = kernel_init(kind, self%dim, cfg%particles%h_over_dx * dx)
+    self%h_over_dx = cfg%particles%h_over_dx
+    self%kernel%kind = kernel_kind_of(trim(cfg%numerics%kernel))
+    call stretching_initial_state(self, eos, dx, parts)
   end subroutine stretching_setup
+
+  !> The initial state at the current positions x of the owned particles
+  !> (paper eq. 1, X1) with particle spacing dx: x0 = x, u_k = alpha_k(0) x_k, p = P(0) (1 - |x|^2/R^2),
+  !> rho from the inverse equation of state, m = rho V with the particle's
+  !> volume V = m/rho of the state it replaces.
+  subroutine stretching_initial_state(self, eos, dx, parts)
+    class(stretching_t), intent(inout) :: self
+    type(eos_t), intent(in) :: eos
+    real(wp), intent(in) :: dx
+    type(particles_t), intent(inout) :: parts
+    real(wp) :: p, vol
+    integer :: i
+    self%kernel = kernel_init(self%kernel%kind, self%dim, self%h_over_dx * dx)
+    do i = 1, parts%n
+      vol = parts%m(i) / parts%rho(i)
+      parts%x0(:, i) = parts%x(:, i)
+      parts%u(:, i) = self%a0 * self%rates * parts%x(:, i)
+      p = self%p0 * (1 - sum(parts%x(:, i)**2) / self%radius**2)
+      parts%p(i) = p
+      parts%rho(i) = eos_density(eos, p)
+      parts%m(i) = parts%rho(i) * vol
+    end do
+  end subroutine stretching_initial_state
 
   !> Time-series columns this case adds after the generic ones.
   subroutine stretching_columns(self, names)

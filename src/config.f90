@@ -41,7 +41,7 @@ module config
 
   ! The allowed words of the word-valued variables.
   character(len=NAME_LEN), parameter :: PLACEMENTS(*) = &
-    [character(len=NAME_LEN) :: 'rings', 'lattice']
+    [character(len=NAME_LEN) :: 'rings', 'lattice', 'packed']
   character(len=NAME_LEN), parameter :: EOS_NAMES(*) = &
     [character(len=NAME_LEN) :: 'linear', 'tait']
   character(len=NAME_LEN), parameter :: KERNEL_NAMES(*) = &
@@ -75,6 +75,8 @@ module config
     integer :: n = 20000                                 !< approximate count
     character(len=NAME_LEN) :: placement = 'rings'
     real(wp) :: h_over_dx = 2.0_wp
+    integer :: pack_iterations = 300                     !< doc/packing.md
+    character(len=DIR_LEN_MAX + 1) :: from = ''          !< snapshot of a packed distribution
   end type particles_params_t
 
   !> &physics: the fluid.
@@ -228,9 +230,14 @@ module config
           '', 'approximate number of particles; the spacing dx follows from it'), &
     var_t(G_PARTICLES, 'placement', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_PLACEMENT, '', 'rings: concentric rings (shells) of spacing dx; ' // &
-          'lattice: square (cubic) lattice clipped to the body'), &
+          'lattice: square (cubic) lattice clipped; packed: relaxed (doc/packing.md)'), &
     var_t(G_PARTICLES, 'h_over_dx', T_REAL, SCALAR, LO_GE, HI_LE, 1.0_wp, 4.0_wp, CH_NONE, &
           '', 'smoothing length h over particle spacing dx'), &
+    var_t(G_PARTICLES, 'pack_iterations', T_INT, SCALAR, LO_GE, HI_LE, 1.0_wp, 100000.0_wp, &
+          CH_NONE, '', 'most iterations of the packing (placement = ''packed'')'), &
+    var_t(G_PARTICLES, 'from', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
+          'empty, or an existing snapshot of a packed run of the same case', &
+          'snapshot whose initial positions are the packed particles (empty: pack anew)'), &
     var_t(G_PHYSICS, 'rho0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
           'reference density'), &
     var_t(G_PHYSICS, 'c0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
@@ -973,16 +980,22 @@ contains
     character(len=*), intent(inout) :: iomsg
     integer :: n
     character(len=NAME_LEN) :: placement
+    character(len=4 * DIR_LEN_MAX) :: from   ! wider than p%from, as for output.dir
     real(wp) :: h_over_dx
-    namelist /particles/ n, placement, h_over_dx
+    integer :: pack_iterations
+    namelist /particles/ n, placement, h_over_dx, pack_iterations, from
     n = p%n
     placement = p%placement
     h_over_dx = p%h_over_dx
+    pack_iterations = p%pack_iterations
+    from = p%from
     read(text, nml=particles, iostat=ios, iomsg=iomsg)
     if (ios /= 0) return
     p%n = n
     p%placement = placement
     p%h_over_dx = h_over_dx
+    p%pack_iterations = pack_iterations
+    p%from = from(1:len(p%from))
   end subroutine read_particles
 
   subroutine read_physics(text, p, ios, iomsg)
@@ -1241,6 +1254,34 @@ contains
       end block
     end if
 
+    if (len_trim(c%particles%from) > 0) then
+      call origin_of(origins, path, 'particles.from', origin, line)
+      block
+        logical :: exists
+        inquire(file=trim(c%particles%from), exist=exists)
+        if (.not. exists) then
+          call fail(err, origin, '&particles from = ' // quoted(trim(c%particles%from)) // &
+                    ' does not exist', line, ': give an existing snapshot file of a run ' // &
+                    'with placement = ''packed'', or leave it empty')
+          return
+        end if
+      end block
+      if (c%particles%placement /= 'packed') then
+        call fail(err, origin, '&particles from = ' // quoted(trim(c%particles%from)) // &
+                  ' needs placement = ''packed''', line, ': the file holds a packed ' // &
+                  'distribution (set particles.placement = ''packed'', or leave from empty)')
+        return
+      end if
+    end if
+    if (c%particles%placement == 'packed' .and. c%run%case_name /= 'circle2d' .and. &
+        c%run%case_name /= 'ellipsoid3d') then
+      call origin_of(origins, path, 'particles.placement', origin, line)
+      call fail(err, origin, '&particles placement = ''packed'' is not available for ' // &
+                trim(c%run%case_name), line, ': packing serves circle2d and ellipsoid3d; ' // &
+                'the square patches are always on a lattice')
+      return
+    end if
+
     call origin_of(origins, path, 'output.probes', origin, line)
     do k = 1, MAX_PROBES
       if (.not. all(ieee_is_finite(c%output%probes(:, k)))) then
@@ -1414,6 +1455,10 @@ contains
       text = quoted(c%particles%placement)
     case ('particles.h_over_dx')
       x = c%particles%h_over_dx
+    case ('particles.pack_iterations')
+      x = real(c%particles%pack_iterations, wp)
+    case ('particles.from')
+      text = quoted(c%particles%from)
     case ('physics.rho0')
       x = c%physics%rho0
     case ('physics.c0')

@@ -15,7 +15,8 @@ module fluid_rhs
   implicit none
   private
   public :: rhs_params_t, rhs_density_gradient, rhs_renormalisation, rhs_evaluate, rhs_shift, &
-            sym_min_eigenvalue, LAMBDA_MIN, LAMBDA_SURFACE, LAMBDA_NEAR
+            sym_min_eigenvalue, LAMBDA_MIN, LAMBDA_SURFACE, LAMBDA_NEAR, pair_buffers, &
+            in_range_pairs
   public :: VISC_NONE, VISC_DELTA, VISC_MONAGHAN, DIFF_NONE, DIFF_MOLTENI, DIFF_ANTUONO
   public :: PGRAD_STANDARD, PGRAD_HIGHER_ORDER, DIV_STANDARD, DIV_RENORMALISED
 

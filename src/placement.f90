@@ -7,13 +7,19 @@
 !> strong stretching where a clipped lattice fails.
 !> 'lattice': a square (cubic) lattice of spacing dx clipped to the body,
 !> each particle with volume dx^dim.
+!> 'packed': the first guess of the packing (doc/packing.md): the clipped
+!> lattice with every point moved by a pseudo-random offset of up to
+!> PACK_NOISE dx per axis (a hash of the particle's number, so the guess is
+!> the same on every rank and every run) and kept inside R - dx/4; every
+!> particle gets the volume |Omega|/N.
 module placement
-  use kinds, only: wp, pi
+  use kinds, only: wp, pi, i8
   implicit none
   private
-  public :: place_ball, ball_spacing, PLACE_RINGS, PLACE_LATTICE
+  public :: place_ball, ball_spacing, PLACE_RINGS, PLACE_LATTICE, PLACE_PACKED, hash_uniform
 
-  integer, parameter :: PLACE_RINGS = 1, PLACE_LATTICE = 2
+  integer, parameter :: PLACE_RINGS = 1, PLACE_LATTICE = 2, PLACE_PACKED = 3
+  real(wp), parameter :: PACK_NOISE = 1.0_wp
 
 contains
 
@@ -48,8 +54,49 @@ contains
       end if
     else
       call clipped_lattice(dim, radius, dx, x, vol)
+      if (kind == PLACE_PACKED) call perturb(dim, radius, dx, x, vol)
     end if
   end subroutine place_ball
+
+  !> The packing's first guess from the clipped lattice (see the header).
+  subroutine perturb(dim, radius, dx, x, vol)
+    integer, intent(in) :: dim
+    real(wp), intent(in) :: radius, dx
+    real(wp), intent(inout) :: x(:, :), vol(:)
+    real(wp) :: r, r_max
+    integer :: i, k
+    r_max = radius - 0.25_wp * dx
+    do i = 1, size(vol)
+      do k = 1, dim
+        x(k, i) = x(k, i) + PACK_NOISE * dx * (2 * hash_uniform(i, k) - 1)
+      end do
+      r = norm2(x(:, i))
+      if (r > r_max) x(:, i) = x(:, i) * (r_max / r)
+    end do
+    if (dim == 2) then
+      vol = pi * radius**2 / size(vol)
+    else
+      vol = 4 * pi * radius**3 / (3 * size(vol))
+    end if
+  end subroutine perturb
+
+  !> A number in [0, 1) from (i, k) by a few rounds of the Park-Miller
+  !> generator, each followed by an xor-shift that breaks its linearity (so
+  !> that neighbouring seeds give unrelated numbers); products stay below
+  !> 2^47: no overflow in 64-bit integers.
+  pure real(wp) function hash_uniform(i, k) result(u)
+    integer, intent(in) :: i, k
+    integer(i8), parameter :: a = 48271_i8, m = 2147483647_i8
+    integer(i8) :: z
+    integer :: l
+    z = mod(int(i, i8) * 3_i8 + int(k, i8), m - 1) + 1
+    do l = 1, 4
+      z = mod(a * z, m)
+      z = ieor(z, ishft(z, -11))
+      if (z == 0) z = 1
+    end do
+    u = real(z - 1, wp) / real(m - 1, wp)
+  end function hash_uniform
 
   subroutine rings_2d(radius, dx, x, vol)
     real(wp), intent(in) :: radius, dx

@@ -28,6 +28,7 @@ module simulation
                         timeseries_load
   use restart, only: restart_read, restart_index_history, snapshot_number
   use domain, only: DECOMP_SLAB, DECOMP_METIS
+  use packing, only: packing_params_t, packing_report_t, pack_ball
   implicit none
   private
   public :: simulation_run
@@ -44,6 +45,8 @@ module simulation
     integer(i8) :: n_global = 0
     real(wp) :: imb_sum = 0, imb_max = 0   !< imbalance statistics over the samples
     integer :: imb_n = 0
+    type(packing_params_t) :: pack
+    type(packing_report_t) :: pack_report
   end type run_t
 
 contains
@@ -68,7 +71,11 @@ contains
     t = 0
     step = 0
     restarting = len_trim(cfg%run%restart) > 0
-    call setup(cfg, env, s, run, dx)
+    call setup(cfg, env, s, run, dx, ok)
+    if (.not. ok) then
+      status = 2
+      return
+    end if
     if (restarting) then
       ! the snapshot's particles replace the initial ones; nothing is
       ! written before it has been read and checked
@@ -191,19 +198,25 @@ contains
 
   !> Translates the configuration into the solver's parameters and builds
   !> the case's initial particles.
-  subroutine setup(cfg, env, s, run, dx)
+  subroutine setup(cfg, env, s, run, dx, ok)
     type(config_t), intent(in) :: cfg
     type(parallel_env_t), intent(in) :: env
     type(solver_t), intent(inout) :: s
     type(run_t), intent(inout) :: run
     real(wp), intent(out) :: dx
+    logical, intent(out) :: ok
     integer :: dim, kernel_kind
+    ok = .true.
     dim = config_dim(cfg)
     s%eos = eos_init(merge(EOS_TAIT, EOS_LINEAR, cfg%physics%eos == 'tait'), &
                      cfg%physics%c0, cfg%physics%rho0, cfg%physics%gamma)
     call make_case(trim(cfg%run%case_name), run%problem)
     call run%problem%setup(cfg, s%eos, s%parts, dx)
     call keep_share(env, s%parts)
+    if (len_trim(cfg%particles%from) > 0) then
+      call read_packed(cfg, env, run%problem, s, dx, ok)
+      if (.not. ok) return
+    end if
     kernel_kind = kernel_kind_of(trim(cfg%numerics%kernel))
     s%rhs%dim = dim
     s%rhs%kernel = kernel_init(kernel_kind, dim, cfg%particles%h_over_dx * dx)
@@ -247,7 +260,62 @@ contains
     run%n_probes = cfg%output%n_probes
     run%probes = cfg%output%probes
     if (dim == 2) run%probes(3, :) = 0
+    if (run%problem%pack_radius > 0 .and. len_trim(cfg%particles%from) == 0 .and. &
+        len_trim(cfg%run%restart) == 0) then
+      run%pack%radius = run%problem%pack_radius
+      run%pack%dx = dx
+      run%pack%max_iterations = cfg%particles%pack_iterations
+      call pack_ball(s, env, run%pack, run%pack_report)
+      call run%problem%initial_state(s%eos, dx, s%parts)
+      ! the run starts afresh on the packed particles
+      s%n_rebuilds = 0
+      s%n_balances = 0
+      s%n_migrated = 0
+      s%comm_time = 0
+    end if
   end subroutine setup
+
+  !> particles.from: the packed particles are the initial positions
+  !> (position_initial) of a snapshot of a packed run of the same case,
+  !> read on any number of ranks; each gets the volume |Omega|/N of the
+  !> packing and the case's initial state (doc/packing.md).  Nothing is
+  !> written if the file does not fit (ok false, message on rank 0).
+  subroutine read_packed(cfg, env, problem, s, dx, ok)
+    type(config_t), intent(in) :: cfg
+    type(parallel_env_t), intent(in) :: env
+    class(case_t), intent(inout) :: problem
+    type(solver_t), intent(inout) :: s
+    real(wp), intent(out) :: dx
+    logical, intent(out) :: ok
+    character(len=:), allocatable :: errmsg
+    real(wp) :: t, vol, r_max, radius
+    integer :: step, n, dim
+    dim = s%parts%dim
+    radius = problem%pack_radius
+    call restart_read(env, trim(cfg%particles%from), trim(cfg%run%case_name), dim, s%parts, &
+                      t, step, ok, errmsg)
+    if (ok) then
+      n = s%parts%n
+      s%parts%x(:, 1:n) = s%parts%x0(:, 1:n)
+      r_max = 0
+      if (n > 0) r_max = sqrt(maxval(sum(s%parts%x(:, 1:n)**2, dim=1)))
+      if (par_max(env, r_max) > radius) then
+        ok = .false.
+        errmsg = '&particles from = ''' // trim(cfg%particles%from) // ''': its initial ' // &
+                 'positions reach outside the radius of this case'
+      end if
+    end if
+    if (.not. par_any_fail(env, ok, errmsg)) then
+      ok = .false.
+      return
+    end if
+    vol = merge(acos(-1.0_wp) * radius**2, 4 * acos(-1.0_wp) * radius**3 / 3, dim == 2) / &
+          par_sum(env, real(s%parts%n, wp))
+    dx = vol**(1 / real(dim, wp))
+    s%parts%m(1:s%parts%n) = vol
+    s%parts%rho(1:s%parts%n) = 1
+    call problem%initial_state(s%eos, dx, s%parts)
+  end subroutine read_packed
 
   !> Every rank has set up the whole case: each keeps a contiguous share of
   !> it; the first list build then balances the decomposition and migrates
@@ -409,6 +477,10 @@ contains
     write(output_unit, '(a)') '  kernel ' // trim(cfg%numerics%kernel) // ', integrator ' // &
       trim(cfg%numerics%integrator) // ', viscosity ' // trim(cfg%numerics%viscosity) // &
       ', diffusion ' // trim(cfg%numerics%diffusion)
+    if (run%pack_report%iterations > 0) write(output_unit, '(a,i0,a,f7.2,a,i0,a,es9.2,a,i0,a)') &
+      '  packed in ', run%pack_report%iterations, ' iterations, ', run%pack_report%wall, &
+      ' s (', run%pack_report%rebuilds, ' list builds, last move ', &
+      run%pack_report%last_move, ' dx, ', run%pack_report%clipped, ' moves clipped)'
     write(output_unit, '(a,es10.3,a,es10.3,a,es10.3,a,es10.3,a)') '  dt ', dt, &
       ' = min(acoustic ', s%dt_cfl, ', force ', s%dt_force, ', viscous ', s%dt_visc, ')'
     write(output_unit, '(a,f10.4,a,i0,a)') '  end time ', cfg%run%t_end, ', about ', &

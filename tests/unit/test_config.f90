@@ -81,7 +81,7 @@ contains
     end do
     close(u, status='delete')
     ! 43 variables, probes written once (probe 1, as n_probes = 1)
-    call assert_equal(46, nvars, 'variable lines in the defaults file')
+    call assert_equal(48, nvars, 'variable lines in the defaults file')
     call assert_equal(nvars, ncommented, 'variable lines with a comment saying what is allowed')
   end subroutine defaults_round_trip
 
@@ -98,8 +98,9 @@ contains
     c%run%max_steps = 123
     c%run%progress_interval = 0.7_wp
     c%particles%n = 123457
-    c%particles%placement = 'lattice'
+    c%particles%placement = 'packed'
     c%particles%h_over_dx = 1.3_wp
+    c%particles%pack_iterations = 77
     c%physics%rho0 = 1000.0_wp
     c%physics%c0 = 20.0_wp / 3    ! >= 3 * max|rates| a0 radius = 5.46
     c%physics%eos = 'tait'
@@ -143,6 +144,7 @@ contains
 
     path = scratch // '/echo.nml'
     c%run%restart = path          ! any existing file passes the validation
+    c%particles%from = path
     call echo_to(c, path)
     call config_load(path, [character(len=1) ::], back, ok, msg)
     call assert_true(ok, 'echo loads: ' // msg)
@@ -366,6 +368,16 @@ contains
     call expect_error(F, '&run case = ''ellipsoid3d'' /|&ellipsoid3d rates = -1.0, -1.0, 1.0 /', &
       NONE, [character(len=80) :: &
       '&ellipsoid3d rates = -1.0, -1.0, 1.0 sum to -1.0 (line 2)', 'must sum to zero'])
+    call expect_error(F, '&particles from = ''echo.nml'' /', NONE, [character(len=80) :: &
+      '&particles from = ''echo.nml'' does not exist', 'placement = ''packed'''])
+    call expect_error(F, '&particles from = ''Makefile'' /', NONE, [character(len=80) :: &
+      '&particles from = ''Makefile'' needs placement = ''packed'''])
+    call expect_error(F, '&particles placement = ''packed'', pack_iterations = 0 /', NONE, &
+      [character(len=80) :: '&particles pack_iterations = 0 is out of range', &
+      'allowed 1 <= pack_iterations <= 100000'])
+    call expect_error(F, '&run case = ''square_rotation'' /|&particles placement = ''packed'' /', &
+      NONE, [character(len=80) :: '&particles placement = ''packed'' is not available for ' // &
+      'square_rotation', 'the square patches are always on a lattice'])
     call expect_error(F, '&ellipsoid3d rates = 0, 0, 0 /', NONE, [character(len=80) :: &
       '&ellipsoid3d rates = 0.0, 0.0, 0.0 are all zero'])
     call expect_error(F, '&physics c0 = 2.0 /', NONE, [character(len=80) :: &
@@ -559,6 +571,9 @@ contains
     call assert_equal(e%square_vortical%v0, a%square_vortical%v0, 0.0_wp, &
                       l // 'square_vortical.v0')
     call assert_equal(trim(e%run%restart), trim(a%run%restart), l // 'run.restart')
+    call assert_equal(e%particles%pack_iterations, a%particles%pack_iterations, &
+                      l // 'particles.pack_iterations')
+    call assert_equal(trim(e%particles%from), trim(a%particles%from), l // 'particles.from')
     call assert_equal(trim(e%parallel%decomposition), trim(a%parallel%decomposition), &
                       l // 'parallel.decomposition')
     call assert_equal(trim(e%parallel%balance), trim(a%parallel%balance), l // 'parallel.balance')

@@ -1,0 +1,277 @@
+!> Particle packing (doc/packing.md): relaxes the particles of a disc (2D)
+!> or ball (3D) of radius R, all of volume V = |Omega|/N, towards a uniform
+!> arrangement by descending the gradient of the kernel sum
+!>   (P1) Gamma_i = Sum_j W_ij V + E(|x_i|),
+!>        E(r) = integral of W(x - y) over the y outside the body,
+!> which is 1 for every particle of a uniform arrangement, inside or at the
+!> free surface: the exterior integral E stands for the fluid the
+!> truncated sum misses, so the surface needs no ghost particles.  Each
+!> iteration moves every particle by
+!>   (P2) d_i = -beta h^2 grad_i Gamma_i,  |d_i| <= d_max dx,
+!>        grad_i Gamma_i = Sum_j F(r_ij) x_ij V + E'(r_i) x_i/r_i,
+!> with heavy-ball momentum, v_i <- mu v_i + d_i, x_i <- x_i + v_i, and a
+!> particle that would leave the body is put back inside at R - dx/4
+!> (P3).  Sums run over the solver's canonical half list, so the result is
+!> bitwise the same for any number of ranks.
+module packing
+  use kinds, only: wp, pi
+  use kernels, only: kernel_t, kernel_w, kernel_f_list, kernel_w_list
+  use fluid_rhs, only: pair_buffers, in_range_pairs
+  use neighbours, only: neighbour_list_t
+  use solver, only: solver_t, solver_rebuild
+  use halo_exchange, only: halo_refresh
+  use parallel_env, only: parallel_env_t, par_max, par_sum, par_sum_exact, wall_time
+  implicit none
+  private
+  public :: packing_params_t, packing_report_t, pack_ball, exterior_table_t, &
+            exterior_table_init, exterior_slope, kernel_sum, PACK_TABLE_SIZE
+
+  integer, parameter :: PACK_TABLE_SIZE = 2048
+
+  !> The iteration's constants.
+  type :: packing_params_t
+    real(wp) :: radius = 1        !< R
+    real(wp) :: dx = 0            !< (|Omega|/N)^(1/dim)
+    integer :: max_iterations = 300
+    real(wp) :: beta = 0.2_wp     !< step of (P2) in units of h^2
+    real(wp) :: mu = 0.8_wp       !< momentum of the heavy ball
+    real(wp) :: d_max = 0.1_wp    !< largest move per iteration, in dx
+    real(wp) :: tolerance = 1e-4_wp   !< stop when every move is below it (in dx)
+  end type packing_params_t
+
+  !> What the relaxation did.
+  type :: packing_report_t
+    integer :: iterations = 0
+    integer :: rebuilds = 0
+    integer :: clipped = 0        !< moves put back inside the body (all iterations)
+    real(wp) :: last_move = 0     !< largest |v_i| of the last iteration / dx
+    real(wp) :: level = 1         !< bulk kernel sum over its integral (last iteration)
+    real(wp) :: wall = 0          !< seconds
+  end type packing_report_t
+
+  !> E'(r) of (P1) on a uniform grid of r over [R - S, R + S], S the
+  !> kernel support; E' = 0 below R - S.
+  type :: exterior_table_t
+    real(wp) :: r_lo = 0, dr = 1
+    real(wp) :: slope(0:PACK_TABLE_SIZE) = 0
+    real(wp) :: total = 1         !< E(R + S), the kernel's integral by the same rule
+  end type exterior_table_t
+
+contains
+
+  !> Tabulates E(r) = integral over |y| > R of W(|x - y|) dy at |x| = r:
+  !> the sphere (circle) of radius s about x lies outside the body where
+  !> cos(theta) > c = (R^2 - r^2 - s^2)/(2 r s), theta measured from x/r,
+  !> so E = Int_0^S W(s) A_out(s) ds with A_out = 2 pi s^2 (1 - c) in 3D
+  !> and 2 s acos(c) in 2D (c clipped to [-1, 1]); Simpson's rule in s,
+  !> then E' by central differences on the table.
+  function exterior_table_init(kernel, dim, radius) result(tab)
+    type(kernel_t), intent(in) :: kernel
+    integer, intent(in) :: dim
+    real(wp), intent(in) :: radius
+    type(exterior_table_t) :: tab
+    integer, parameter :: ns = 4096
+    real(wp) :: e(-1:PACK_TABLE_SIZE + 1), r, s, ds, c, a, wgt
+    integer :: k, l
+    tab%r_lo = radius - kernel%support
+    tab%dr = 2 * kernel%support / PACK_TABLE_SIZE
+    ds = kernel%support / ns
+    do k = -1, PACK_TABLE_SIZE + 1
+      r = max(tab%r_lo + k * tab%dr, 1e-12_wp * radius)
+      e(k) = 0
+      do l = 0, ns
+        s = l * ds
+        if (s <= 0) cycle
+        c = max(-1.0_wp, min(1.0_wp, (radius**2 - r**2 - s**2) / (2 * r * s)))
+        if (dim == 3) then
+          a = 2 * pi * s**2 * (1 - c)
+        else
+          a = 2 * s * acos(c)
+        end if
+        wgt = merge(1.0_wp, merge(4.0_wp, 2.0_wp, mod(l, 2) == 1), l == ns)
+        e(k) = e(k) + wgt * kernel_w(kernel, s) * a
+      end do
+      e(k) = e(k) * ds / 3
+    end do
+    do k = 0, PACK_TABLE_SIZE
+      tab%slope(k) = (e(k + 1) - e(k - 1)) / (2 * tab%dr)
+    end do
+    tab%total = e(PACK_TABLE_SIZE)
+  end function exterior_table_init
+
+  !> E'(r) by linear interpolation in the table.
+  pure function exterior_slope(tab, r) result(ep)
+    type(exterior_table_t), intent(in) :: tab
+    real(wp), intent(in) :: r
+    real(wp) :: ep, t
+    integer :: k
+    ep = 0
+    t = (r - tab%r_lo) / tab%dr
+    if (t <= 0) return
+    k = min(int(t), PACK_TABLE_SIZE - 1)
+    t = min(t - k, 1.0_wp)
+    ep = (1 - t) * tab%slope(k) + t * tab%slope(k + 1)
+  end function exterior_slope
+
+  !> grad_i of Sum_j W_ij V (the pair part of P2) for the n owned
+  !> particles, from the half list in canonical order; halo slots get
+  !> partial sums that are not used.
+  subroutine sum_gradient(kernel, n, ntot, x, vol, nl, grad, gam)
+    type(kernel_t), intent(in) :: kernel
+    integer, intent(in) :: n, ntot
+    real(wp), intent(in) :: x(3, ntot), vol
+    type(neighbour_list_t), intent(in) :: nl
+    real(wp), intent(out) :: grad(3, ntot), gam(ntot)
+    real(wp), allocatable :: xl(:, :), r2l(:), fl(:), wl(:)
+    integer, allocatable :: jl(:)
+    real(wp) :: gi(3), g(3), s2, si
+    integer :: kk, i, j, l, nn
+    s2 = kernel%support**2
+    call pair_buffers(nl, jl, xl, r2l, fl)
+    allocate(wl(size(r2l)))
+    grad = 0
+    gam = 0
+    do kk = 1, nl%n_rows
+      i = nl%row(kk)
+      call in_range_pairs(kk, i, x, s2, nl, nn, jl, xl, r2l)
+      call kernel_f_list(kernel, nn, r2l, fl)
+      call kernel_w_list(kernel, nn, r2l, wl)
+      gi = 0
+      si = 0
+      do l = 1, nn
+        j = jl(l)
+        g = fl(l) * xl(:, l)
+        gi = gi + g
+        grad(:, j) = grad(:, j) - g
+        si = si + wl(l)
+        gam(j) = gam(j) + wl(l)
+      end do
+      grad(:, i) = grad(:, i) + gi
+      gam(i) = gam(i) + si
+    end do
+    grad(:, 1:n) = vol * grad(:, 1:n)
+    gam(1:n) = vol * (gam(1:n) + kernel_w(kernel, 0.0_wp))
+    grad(:, n + 1:ntot) = 0
+    gam(n + 1:ntot) = 0
+  end subroutine sum_gradient
+
+  !> The kernel sum Sum_j W_ij V (self included; no exterior part) of the
+  !> n owned particles, from the half list: a measure of the packing.
+  subroutine kernel_sum(kernel, n, ntot, x, vol, nl, gam)
+    type(kernel_t), intent(in) :: kernel
+    integer, intent(in) :: n, ntot
+    real(wp), intent(in) :: x(3, ntot), vol
+    type(neighbour_list_t), intent(in) :: nl
+    real(wp), intent(out) :: gam(ntot)
+    real(wp), allocatable :: xl(:, :), r2l(:), fl(:)
+    integer, allocatable :: jl(:)
+    real(wp) :: si, s2, w
+    integer :: kk, i, j, l, nn
+    s2 = kernel%support**2
+    call pair_buffers(nl, jl, xl, r2l, fl)
+    gam = 0
+    do kk = 1, nl%n_rows
+      i = nl%row(kk)
+      call in_range_pairs(kk, i, x, s2, nl, nn, jl, xl, r2l)
+      si = 0
+      do l = 1, nn
+        j = jl(l)
+        w = kernel_w(kernel, sqrt(r2l(l)))
+        si = si + w
+        gam(j) = gam(j) + w
+      end do
+      gam(i) = gam(i) + si
+    end do
+    gam(1:n) = vol * (gam(1:n) + kernel_w(kernel, 0.0_wp))
+    gam(n + 1:ntot) = 0
+  end subroutine kernel_sum
+
+  !> Relaxes the owned particles of s%parts (P2, P3) in place, on the
+  !> solver's decomposition, halo and neighbour list (rebuilt when the
+  !> particles have moved by half the skin since the last build).  The
+  !> velocities serve as the momentum of the heavy ball and are zero on
+  !> return; the caller sets the physical state afterwards.
+  subroutine pack_ball(s, env, prm, rep)
+    type(solver_t), intent(inout) :: s
+    type(parallel_env_t), intent(in) :: env
+    type(packing_params_t), intent(in) :: prm
+    type(packing_report_t), intent(out) :: rep
+    type(exterior_table_t) :: tab
+    type(kernel_t) :: kern
+    real(wp), allocatable :: grad(:, :), gam(:), inner(:, :)
+    real(wp) :: vol, coef, level, sums(2), dmax_abs, r_clip, r, d(3), dn, moved, vmax, t0, h
+    integer :: i, it, n, ntot, clipped
+    t0 = wall_time()
+    kern = s%rhs%kernel
+    h = kern%h
+    vol = prm%dx**s%parts%dim
+    coef = prm%beta * h**2
+    dmax_abs = prm%d_max * prm%dx
+    r_clip = prm%radius - 0.25_wp * prm%dx
+    tab = exterior_table_init(kern, s%parts%dim, prm%radius)
+    s%skin = s%skin_min
+    call solver_rebuild(s, env)
+    rep%rebuilds = 1
+    s%parts%u = 0
+    moved = 0
+    clipped = 0
+    do it = 1, prm%max_iterations
+      if (moved > 0.5_wp * s%skin) then
+        call solver_rebuild(s, env)
+        rep%rebuilds = rep%rebuilds + 1
+        moved = 0
+      end if
+      call halo_refresh(s%halo, env, s%parts)
+      n = s%parts%n
+      ntot = n + s%parts%n_halo
+      if (allocated(grad)) then
+        if (size(grad, 2) < ntot) deallocate(grad)
+      end if
+      if (.not. allocated(grad)) allocate(grad(3, size(s%parts%x, 2)), gam(size(s%parts%x, 2)))
+      call sum_gradient(kern, n, ntot, s%parts%x, vol, s%nl, grad, gam)
+      ! the level of the discrete kernel sum in the bulk (above 1 by the
+      ! kernel's discretisation error, 0.3 % at h = 1.6 dx in 3D) scales the
+      ! exterior part, so that the free surface is in balance with the bulk
+      allocate(inner(2, n))
+      do i = 1, n
+        inner(:, i) = merge([gam(i), 1.0_wp], [0.0_wp, 0.0_wp], &
+                            norm2(s%parts%x(:, i)) < prm%radius - 2 * kern%support)
+      end do
+      sums = par_sum_exact(env, inner)
+      deallocate(inner)
+      level = 1
+      if (sums(2) > 0) level = sums(1) / (sums(2) * tab%total)
+      rep%level = level
+      vmax = 0
+      associate(x => s%parts%x, v => s%parts%u)
+        do i = 1, n
+          r = norm2(x(:, i))
+          if (r > 0) grad(:, i) = grad(:, i) + (level * exterior_slope(tab, r) / r) * x(:, i)
+          d = -coef * grad(:, i)
+          dn = norm2(d)
+          if (dn > dmax_abs) d = d * (dmax_abs / dn)
+          v(:, i) = prm%mu * v(:, i) + d
+          x(:, i) = x(:, i) + v(:, i)
+          r = norm2(x(:, i))
+          if (r > r_clip) then
+            x(:, i) = x(:, i) * (r_clip / r)
+            v(:, i) = 0
+            clipped = clipped + 1
+          end if
+          vmax = max(vmax, norm2(v(:, i)))
+        end do
+      end associate
+      vmax = par_max(env, vmax)
+      ! every particle moved by at most vmax: the radial clip is a projection
+      ! onto the ball, which holds the old position, so it never adds to a move
+      moved = moved + vmax
+      rep%iterations = it
+      rep%last_move = vmax / prm%dx
+      if (vmax < prm%tolerance * prm%dx) exit
+    end do
+    rep%clipped = nint(par_sum(env, real(clipped, wp)))
+    s%parts%u = 0
+    rep%wall = wall_time() - t0
+  end subroutine pack_ball
+
+end module packing
