@@ -16,7 +16,7 @@ module case_stretching
   use eos, only: eos_t, eos_density
   use exact_ellipse, only: ellipse_exact_t, ellipse_exact_init, ellipse_exact_at, &
                            ellipse_centre_pressure, ellipse_map, ellipse_velocity, &
-                           ellipse_pressure
+                           ellipse_pressure, ellipse_centre_pressure_rate
   use placement, only: PLACE_RINGS, PLACE_LATTICE, PLACE_PACKED
   use diagnostics, only: fitted_semi_axes, probe_pressure, kinetic_energy
   use parallel_env, only: parallel_env_t, par_sum_array
@@ -33,6 +33,7 @@ module case_stretching
     type(ellipse_exact_t) :: ex
     type(kernel_t) :: kernel            !< for the free-surface indicator in snapshots
     real(wp) :: h_over_dx = 2
+    logical :: prepared = .false.       !< (I1) the compressible correction of u0
     ! running sums over samples (for the paper's time-averaged errors)
     integer :: n_samples = 0
     real(wp) :: sum_axis_err = 0, sum_pos_err = 0, sum_vel_err = 0, sum_p_err = 0
@@ -76,6 +77,7 @@ contains
       self%radius = cfg%ellipsoid3d%radius
       self%a0 = cfg%ellipsoid3d%a0
       self%rates = cfg%ellipsoid3d%rates
+      self%prepared = cfg%ellipsoid3d%prepared
     else
       self%dim = 2
       self%radius = cfg%circle2d%radius
@@ -115,13 +117,22 @@ contains
     type(eos_t), intent(in) :: eos
     real(wp), intent(in) :: dx
     type(particles_t), intent(inout) :: parts
-    real(wp) :: p, vol
-    integer :: i
+    real(wp) :: p, vol, kappa, r2
+    integer :: i, d
     self%kernel = kernel_init(self%kernel%kind, self%dim, self%h_over_dx * dx)
+    d = self%dim
+    ! (I1) the prepared start: div u = -(dP/dt)(0) (1 - r^2/R^2) / (rho0 c0^2)
+    kappa = 0
+    if (self%prepared) then
+      call ellipse_exact_at(self%ex, 0.0_wp)
+      kappa = ellipse_centre_pressure_rate(self%ex) / (eos%rho0 * eos%c0**2)
+    end if
     do i = 1, parts%n
       vol = parts%m(i) / parts%rho(i)
       parts%x0(:, i) = parts%x(:, i)
-      parts%u(:, i) = self%a0 * self%rates * parts%x(:, i)
+      r2 = sum(parts%x(:, i)**2)
+      parts%u(:, i) = self%a0 * self%rates * parts%x(:, i) &
+                      - kappa * (1.0_wp / d - r2 / ((d + 2) * self%radius**2)) * parts%x(:, i)
       p = self%p0 * (1 - sum(parts%x(:, i)**2) / self%radius**2)
       parts%p(i) = p
       parts%rho(i) = eos_density(eos, p)

@@ -131,6 +131,7 @@ module config
     real(wp) :: radius = 1.0_wp
     real(wp) :: a0 = 1.0_wp
     real(wp) :: rates(3) = [-1.0_wp, -1.0_wp, 2.0_wp]   !< in units of a0
+    logical :: prepared = .false.                        !< (I1) compressible start
   end type ellipsoid3d_params_t
 
   !> &square_rotation: the rotating square patch (2D).
@@ -310,6 +311,9 @@ module config
     var_t(G_ELLIPSOID3D, 'rates', T_REAL, [3, 0], LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
           'summing to zero within 1e-12, not all zero', &
           'initial velocity u_k = rates(k) A0 x_k (rates in units of A0)'), &
+    var_t(G_ELLIPSOID3D, 'prepared', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
+          CH_NONE, '', 'add the compressible part of the start (I1, doc/numerics.md): ' // &
+          'no acoustic mode from P''(0)'), &
     var_t(G_SQUARE_ROTATION, 'side', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_NONE, '', 'side L of the initial square, centred at the origin'), &
     var_t(G_SQUARE_ROTATION, 'omega', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, &
@@ -1116,15 +1120,18 @@ contains
     integer, intent(out) :: ios
     character(len=*), intent(inout) :: iomsg
     real(wp) :: radius, a0, rates(3)
-    namelist /ellipsoid3d/ radius, a0, rates
+    logical :: prepared
+    namelist /ellipsoid3d/ radius, a0, rates, prepared
     radius = p%radius
     a0 = p%a0
     rates = p%rates
+    prepared = p%prepared
     read(text, nml=ellipsoid3d, iostat=ios, iomsg=iomsg)
     if (ios /= 0) return
     p%radius = radius
     p%a0 = a0
     p%rates = rates
+    p%prepared = prepared
   end subroutine read_ellipsoid3d
 
   subroutine read_square_rotation(text, p, ios, iomsg)
@@ -1522,6 +1529,8 @@ contains
       x = c%ellipsoid3d%a0
     case ('ellipsoid3d.rates')
       text = real_list(c%ellipsoid3d%rates)
+    case ('ellipsoid3d.prepared')
+      text = trim(merge('.true. ', '.false.', c%ellipsoid3d%prepared))
     case ('square_rotation.side')
       x = c%square_rotation%side
     case ('square_rotation.omega')

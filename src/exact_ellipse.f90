@@ -49,7 +49,7 @@ module exact_ellipse
   private
   public :: ellipse_exact_t, ellipse_exact_init, ellipse_exact_at
   public :: ellipse_centre_pressure, ellipse_pressure, ellipse_velocity
-  public :: ellipse_map, ellipse_kinetic_energy, ellipse_volume
+  public :: ellipse_map, ellipse_kinetic_energy, ellipse_volume, ellipse_centre_pressure_rate
 
   !> Default number of RK4 steps per time unit 1/max|alpha_k(0)|.
   integer, parameter :: default_steps_per_unit = 1000
@@ -136,6 +136,22 @@ contains
     d = ex%dim
     p = ex%rho * sum(ex%alpha(1:d)**2) / (2 * sum(1 / ex%a(1:d)**2))
   end function ellipse_centre_pressure
+
+  !> dP/dt from P = rho N/D, N = Sum alpha_k^2, D = 2 Sum 1/a_k^2:
+  !> N' = 2 Sum alpha_k alpha_k' with alpha_k' = 2P/(rho a_k^2) - alpha_k^2,
+  !> D' = -4 Sum alpha_k/a_k^2 (a_k' = alpha_k a_k), P' = rho (N' D - N D')/D^2.
+  pure function ellipse_centre_pressure_rate(ex) result(dp)
+    type(ellipse_exact_t), intent(in) :: ex
+    real(wp) :: dp, p, n, d, dn, dd
+    integer :: k
+    k = ex%dim
+    p = ellipse_centre_pressure(ex)
+    n = sum(ex%alpha(1:k)**2)
+    d = 2 * sum(1 / ex%a(1:k)**2)
+    dn = 2 * sum(ex%alpha(1:k) * (2 * p / (ex%rho * ex%a(1:k)**2) - ex%alpha(1:k)**2))
+    dd = -4 * sum(ex%alpha(1:k) / ex%a(1:k)**2)
+    dp = ex%rho * (dn * d - n * dd) / d**2
+  end function ellipse_centre_pressure_rate
 
   !> p(x, t) = P (1 - Sum_k x_k^2/a_k^2) inside the ellipse; 0 outside it
   !> (there is no fluid there: the formula would give a negative value).

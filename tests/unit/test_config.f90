@@ -81,7 +81,7 @@ contains
     end do
     close(u, status='delete')
     ! 43 variables, probes written once (probe 1, as n_probes = 1)
-    call assert_equal(48, nvars, 'variable lines in the defaults file')
+    call assert_equal(49, nvars, 'variable lines in the defaults file')
     call assert_equal(nvars, ncommented, 'variable lines with a comment saying what is allowed')
   end subroutine defaults_round_trip
 
@@ -134,6 +134,7 @@ contains
     c%ellipsoid3d%radius = 0.7_wp
     c%ellipsoid3d%a0 = 1.3_wp
     c%ellipsoid3d%rates = [0.5_wp, 1.5_wp, -2.0_wp]
+    c%ellipsoid3d%prepared = .true.
     c%square_rotation%side = 2.0_wp / 3
     c%square_rotation%omega = 0.25_wp
     c%square_vortical%side = 1.0e-3_wp
@@ -574,6 +575,8 @@ contains
     call assert_equal(e%particles%pack_iterations, a%particles%pack_iterations, &
                       l // 'particles.pack_iterations')
     call assert_equal(trim(e%particles%from), trim(a%particles%from), l // 'particles.from')
+    call assert_true(e%ellipsoid3d%prepared .eqv. a%ellipsoid3d%prepared, &
+                     l // 'ellipsoid3d.prepared')
     call assert_equal(trim(e%parallel%decomposition), trim(a%parallel%decomposition), &
                       l // 'parallel.decomposition')
     call assert_equal(trim(e%parallel%balance), trim(a%parallel%balance), l // 'parallel.balance')

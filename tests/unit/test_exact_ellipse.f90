@@ -12,6 +12,7 @@
 module test_exact_ellipse
   use kinds, only: wp, pi
   use exact_ellipse, only: ellipse_exact_t, ellipse_exact_init, ellipse_exact_at, &
+                           ellipse_centre_pressure_rate, &
                            ellipse_centre_pressure, ellipse_pressure, ellipse_velocity, &
                            ellipse_map, ellipse_kinetic_energy
   use testing, only: run_test, assert_true, assert_equal, assert_relatively_equal
@@ -43,7 +44,39 @@ contains
     call run_test('exact_ellipse', 'momentum_equation', momentum_equation)
     call run_test('exact_ellipse', 'material_free_surface', material_free_surface)
     call run_test('exact_ellipse', 'call_order_independent', call_order)
+    call run_test('exact_ellipse', 'pressure_rate_against_differences', pressure_rate)
   end subroutine suite_exact_ellipse
+
+  !> dP/dt (the prepared start I1 uses it at t = 0) against central
+  !> differences of P(t) with step 1e-4/A0 (error about 1e-8 P(0) A0, the
+  !> integrator's 1e-12 over 2e-4): zero at t = 0 in 2D (the rates (-1, 1)
+  !> make P stationary there), -2 P(0) A0 in 3D (-1, -1, 2) at t = 0.
+  subroutine pressure_rate()
+    type(ellipse_exact_t) :: ex
+    real(wp), parameter :: eps = 1e-4_wp
+    real(wp) :: t, pp, pm, rate
+    integer :: dim, k
+    do dim = 2, 3
+      do k = 0, 2
+        if (dim == 2) call ellipse_exact_init(ex, 2, 1.0_wp, 1.0_wp, [-1.0_wp, 1.0_wp])
+        if (dim == 3) call ellipse_exact_init(ex, 3, 1.0_wp, 1.0_wp, [-1.0_wp, -1.0_wp, 2.0_wp])
+        t = 0.5_wp * k
+        call ellipse_exact_at(ex, t)
+        rate = ellipse_centre_pressure_rate(ex)
+        if (k == 0) then
+          ! P'(0) exact: rho (N' D - N D')/D^2 with a = R = 1: 2D N' = D' = 0;
+          ! 3D N = 6, D = 6, N' = 2 Sum alpha (2P - alpha^2) = -12, D' = 0
+          call assert_equal(merge(0.0_wp, -2.0_wp, dim == 2), rate, 1e-14_wp, 'P''(0)')
+          cycle
+        end if
+        call ellipse_exact_at(ex, t + eps)
+        pp = ellipse_centre_pressure(ex)
+        call ellipse_exact_at(ex, t - eps)
+        pm = ellipse_centre_pressure(ex)
+        call assert_equal((pp - pm) / (2 * eps), rate, 1e-7_wp, 'P''(t) by differences')
+      end do
+    end do
+  end subroutine pressure_rate
 
   ! DESIGN.md X1 table (6 digits): a/R and P/(rho A0^2 R^2) at t A0 = 0.5, 1, 2;
   ! then the 17-digit reference to 1e-10 relative.
