@@ -34,6 +34,15 @@ module fluid_rhs
   !> below LAMBDA_SURFACE a particle is on the free surface, below
   !> LAMBDA_NEAR near it.
   real(wp), parameter :: LAMBDA_SURFACE = 0.55_wp, LAMBDA_NEAR = 0.9_wp
+  !> (section 5) the higher-order gradient's weight rises linearly from 0 at
+  !> LAMBDA_BLEND to 1 at LAMBDA_NEAR (doc/numerics.md, "the blend")
+  real(wp), parameter :: LAMBDA_BLEND = 0.7_wp
+  !> (section 5) the corrected form's largest weight: a tenth of the
+  !> conservative (E4) stays everywhere, whose term 2 p_i Sum_j g V_j pushes
+  !> particles apart where they crowd; the corrected form alone has no such
+  !> restoring force, and a stretched Lagrangian arrangement then grows
+  !> particle-scale velocity noise (doc/numerics.md, "the blend")
+  real(wp), parameter :: HO_WEIGHT_MAX = 0.9_wp
   !> (E8) the weight of the anti-clustering term R (W_ij/W(dx))^n of the
   !> shifting (Sun et al. 2017: R = 0.2, n = 4)
   real(wp), parameter :: SHIFT_R = 0.2_wp
@@ -59,6 +68,10 @@ module fluid_rhs
     !> velocity divergence of the continuity equation: DIV_STANDARD (E1) or
     !> DIV_RENORMALISED (needs rhs_renormalisation first)
     integer :: divergence = DIV_STANDARD
+    !> the corrected gradient's weight inside the fluid (section 5, the
+    !> blend); 1 gives the corrected form alone (the unit tests of its
+    !> exactness use that)
+    real(wp) :: ho_weight = HO_WEIGHT_MAX
   end type rhs_params_t
 
 contains
@@ -266,11 +279,16 @@ contains
   !>       -(1/rho_i) L_i Sum_j (p_j - p_i) g V_j,
   !>   exact for a linear pressure, with p = 0 imposed on the free-surface
   !>   particles (lambda < LAMBDA_SURFACE).  On and near the free surface
-  !>   (lambda_i < LAMBDA_NEAR) the particle keeps the conservative (E4):
+  !>   (lambda_i <= LAMBDA_BLEND) the particle keeps the conservative (E4):
   !>   there the corrected form, with its truncated kernel and L_i far from
   !>   I, was measured unstable (doc/numerics.md: the rotating square and
   !>   the circle blow up by t = 0.5/omega, 0.8/A0, whether L_i is used or
-  !>   not on the surface).  Not conservative.
+  !>   not on the surface).  Between, the two forms are blended with the
+  !>   weight w_i = (lambda_i - LAMBDA_BLEND)/(LAMBDA_NEAR - LAMBDA_BLEND)
+  !>   of the corrected one: a stretched arrangement lowers lambda inside
+  !>   the fluid too, and a hard switch there turned bulk particles to (E4)
+  !>   one by one.  Inside, the weight is prm%ho_weight (0.9), not 1 (measured in
+  !>   doc/numerics.md).  Not conservative.
   !> prm%divergence = DIV_RENORMALISED: the velocity divergence of (E1) is
   !>   Sum_j u_ji . (L_i g) V_j, exact for linear velocity fields (the
   !>   standard sum is not near the free surface, where it makes the density
@@ -332,13 +350,15 @@ contains
     if (renorm .and. .not. present(lmat)) &
       error stop 'rhs_evaluate: the renormalised operators need lmat (rhs_renormalisation)'
     ! (section 5): the pressure with p = 0 on the free surface (pf), and the
-    ! weight wc = 1 of the consistent form inside the fluid (lambda >=
-    ! LAMBDA_NEAR), 0 (the conservative E4) on and near the surface
+    ! weight wc of the consistent form: prm%ho_weight inside the fluid
+    ! (lambda >= LAMBDA_NEAR), 0 (the conservative E4) on the surface and
+    ! near it (lambda <= LAMBDA_BLEND), linear in lambda between
     if (corrected) then
       if (.not. present(lambda)) error stop 'rhs_evaluate: the higher-order gradient needs lambda'
       allocate(pf(ntot), wc(ntot))
       pf = merge(0.0_wp, p(1:ntot), lambda(1:ntot) < LAMBDA_SURFACE)
-      wc = merge(1.0_wp, 0.0_wp, lambda(1:ntot) >= LAMBDA_NEAR)
+      wc = prm%ho_weight * max(0.0_wp, min(1.0_wp, (lambda(1:ntot) - LAMBDA_BLEND) &
+                                               / (LAMBDA_NEAR - LAMBDA_BLEND)))
     end if
     li = 0
     lgi = 0

@@ -40,6 +40,7 @@ contains
     call run_test('fluid_rhs', 'higher_order_gradient_exact_for_linear_pressure', ho_linear)
     call run_test('fluid_rhs', 'higher_order_gradient_on_lattice', ho_lattice)
     call run_test('fluid_rhs', 'higher_order_ignores_free_surface_pressure', ho_surface_pressure)
+    call run_test('fluid_rhs', 'higher_order_blend_of_the_two_forms', ho_blend)
     call run_test('fluid_rhs', 'renormalised_divergence_exact_for_linear_velocity', div_linear)
     call run_test('fluid_rhs', 'free_surface_indicator_on_lattice_disc', free_surface_disc)
     call run_test('fluid_rhs', 'shifting_zero_on_lattice_interior_and_surface', shift_lattice)
@@ -386,6 +387,7 @@ contains
       c%prm%viscosity = VISC_NONE
       c%prm%diffusion = DIFF_NONE
       c%prm%pressure_gradient = PGRAD_HIGHER_ORDER
+      c%prm%ho_weight = 1      ! the corrected form alone
       allocate(lmat(6, c%n), lambda(c%n), ones(c%n))
       call rhs_renormalisation(c%prm, c%n, c%n, c%x, c%rho, c%m, c%nl, lambda, lmat)
       ones = 1
@@ -422,6 +424,7 @@ contains
     c%prm%viscosity = VISC_NONE
     c%prm%diffusion = DIFF_NONE
     c%prm%pressure_gradient = PGRAD_HIGHER_ORDER
+    c%prm%ho_weight = 1      ! the corrected form alone
     allocate(lmat(6, c%n), lambda(c%n))
     call rhs_renormalisation(c%prm, c%n, c%n, c%x, c%rho, c%m, c%nl, lambda, lmat)
     call rhs_evaluate(c%prm, c%n, c%n, c%x, c%u, c%rho, c%m, c%p, c%g, c%nl, c%drho, c%du, &
@@ -461,6 +464,7 @@ contains
     c%prm%viscosity = VISC_NONE
     c%prm%diffusion = DIFF_NONE
     c%prm%pressure_gradient = PGRAD_HIGHER_ORDER
+    c%prm%ho_weight = 1      ! the corrected form alone inside
     call rhs_renormalisation(c%prm, c%n, c%n, c%x, c%rho, c%m, c%nl, lambda, lmat)
     call rhs_evaluate(c%prm, c%n, c%n, c%x, c%u, c%rho, c%m, c%p, c%g, c%nl, c%drho, c%du, &
                       lambda, lmat)
@@ -477,6 +481,47 @@ contains
     call assert_true(maxval(abs(c%du - du0), mask=spread(lambda < LAMBDA_SURFACE, 1, 3)) > 1, &
                      'on the surface: (E4) with the particles'' own pressures')
   end subroutine ho_surface_pressure
+
+  !> (Section 5, the blend) Each pair adds w_i times the corrected form and
+  !> 1 - w_i times (E4) to particle i, w_i = W clamp((lambda_i - 0.7)/0.2,
+  !> 0, 1), W = ho_weight: so the gradient with W = 0.9 is 0.9 times the one
+  !> with W = 1 plus 0.1 times (E4), particle by particle, to round-off.
+  subroutine ho_blend()
+    type(cloud_t) :: c
+    integer :: i, dim, nblend
+    real(wp) :: w
+    real(wp), allocatable :: lmat(:, :), lambda(:), du_std(:, :), du_ho(:, :)
+    do dim = 2, 3
+      call make_cloud(c, dim, merge(12, 6, dim == 2), 0.5_wp, 97 + dim)
+      allocate(lmat(6, c%n), lambda(c%n), du_std(3, c%n), du_ho(3, c%n))
+      do i = 1, c%n
+        c%p(i) = 1 - sum(c%x(:, i)**2) + 0.3_wp * c%x(1, i)
+      end do
+      c%prm%viscosity = VISC_NONE
+      c%prm%diffusion = DIFF_NONE
+      call rhs_renormalisation(c%prm, c%n, c%n, c%x, c%rho, c%m, c%nl, lambda, lmat)
+      c%prm%pressure_gradient = PGRAD_STANDARD
+      call rhs_evaluate(c%prm, c%n, c%n, c%x, c%u, c%rho, c%m, c%p, c%g, c%nl, c%drho, c%du)
+      du_std = c%du(:, 1:c%n)
+      c%prm%pressure_gradient = PGRAD_HIGHER_ORDER
+      c%prm%ho_weight = 1
+      call rhs_evaluate(c%prm, c%n, c%n, c%x, c%u, c%rho, c%m, c%p, c%g, c%nl, c%drho, c%du, &
+                        lambda, lmat)
+      du_ho = c%du(:, 1:c%n)
+      c%prm%ho_weight = 0.9_wp
+      call rhs_evaluate(c%prm, c%n, c%n, c%x, c%u, c%rho, c%m, c%p, c%g, c%nl, c%drho, c%du, &
+                        lambda, lmat)
+      nblend = 0
+      do i = 1, c%n
+        w = max(0.0_wp, min(1.0_wp, (lambda(i) - 0.7_wp) / 0.2_wp))
+        if (w > 0 .and. w < 1) nblend = nblend + 1
+        call assert_equal(0.9_wp * du_ho(:, i) + 0.1_wp * du_std(:, i), c%du(:, i), &
+                          1e-12_wp * maxval(abs(du_std)), 'du = 0.9 du(W = 1) + 0.1 du_E4')
+      end do
+      call assert_true(nblend > 0, 'particles in the blend zone')
+      deallocate(lmat, lambda, du_std, du_ho)
+    end do
+  end subroutine ho_blend
 
   !> (E1) renormalised: Sum_j u_ji . (L_i g) V_j is div u exactly for a
   !> linear velocity on a jittered cloud wherever L_i is renormalised; with
