@@ -26,13 +26,12 @@ def short_run():
 
 def test_short_run_accuracy():
     # Thresholds: 1.5x the errors measured at this resolution (N = 1,250,
-    # t A0 = 0.5) with the input file's operators (renormalised divergence,
-    # higher-order pressure gradient); the study N = 1,250 / 5,000 / 20,000
-    # gave RMS velocity 0.35 / 0.26 / 0.19 %, RMS position 0.10 / 0.080 /
-    # 0.068 %, largest semi-axis error 0.16 / 0.15 / 0.14 %, KE change
-    # -0.48 / -0.24 / -0.07 %, time-averaged raw centre pressure 1.4 / 1.0 /
-    # 1.2 % of P(0) (the standard operators: 1.32, 0.39, 0.11, -0.83, 5.2 %
-    # at 1,250, which these thresholds reject).
+    # t A0 = 0.5) with the input file's scheme (packed particles,
+    # renormalised divergence, higher-order pressure gradient blended and
+    # capped at 0.9): RMS velocity 0.416 %, RMS position 0.118 %, largest
+    # semi-axis error 0.158 %, KE change -0.491 %, time-averaged raw centre
+    # pressure 1.39 % of P(0) (the standard operators: 1.32 % velocity at
+    # 1,250 on rings, which these thresholds reject).
     d, _ = short_run()
     ts = read_timeseries(d / "timeseries.csv")
     last = {k: v[-1] for k, v in ts.items()}
@@ -40,14 +39,16 @@ def test_short_run_accuracy():
     # the exact solution recorded beside the SPH values (DESIGN.md table)
     assert abs(last["semi_axis_1_exact"] - 0.627053) < 2e-6
     assert abs(last["p_centre_exact"] - 0.231943) < 2e-6
-    assert last["rms_velocity_error"] < 0.0053, last["rms_velocity_error"]
-    assert last["rms_position_error"] < 0.0016, last["rms_position_error"]
+    assert last["rms_velocity_error"] < 0.0062, last["rms_velocity_error"]
+    assert last["rms_position_error"] < 0.0018, last["rms_position_error"]
     assert max(abs(last["semi_axis_1_error"]), abs(last["semi_axis_2_error"])) < 0.0024
     ke0 = ts["kinetic_energy"][0]
-    assert abs(last["kinetic_energy"] / ke0 - 1) < 0.0072, last["kinetic_energy"] / ke0
+    assert abs(last["kinetic_energy"] / ke0 - 1) < 0.0074, last["kinetic_energy"] / ke0
     # the exact flow keeps the kinetic energy of these particles constant
+    # when their mass-weighted second moments are isotropic, as on rings;
+    # packed particles are isotropic to a few 1e-5 (measured 2.7e-5 here)
     kex = np.array(ts["kinetic_energy_exact"])
-    assert np.max(np.abs(kex / kex[0] - 1)) < 1e-9
+    assert np.max(np.abs(kex / kex[0] - 1)) < 1e-4
     # continuum KE of the patch is pi rho A0^2 R^4 / 4; the discrete one is
     # within the particle density excess p/c0^2 (<= 0.5 %) and O(dx^2) of it
     assert abs(kex[0] / (math.pi / 4) - 1) < 0.01
@@ -59,7 +60,8 @@ def test_short_run_accuracy():
 def test_conservation():
     # mass is carried by particles (exactly constant); with the standard
     # pressure gradient (E4) the pair forces are antisymmetric, so momentum
-    # stays at its initial value (zero by symmetry) to round-off.  (The
+    # stays at its initial value to round-off (on packed particles that
+    # value is not zero: their centroid is not exactly the origin).  (The
     # input file's higher-order gradient is not conservative.)
     d = scratch("conservation") / "run"
     p = run_sph(["input/circle2d.nml", "particles.n=1250", "run.t_end=0.5", "output.dt=0.5",
@@ -71,7 +73,8 @@ def test_conservation():
     assert abs(m[0] / math.pi - 1) < 0.01     # rho0 pi R^2, within p/c0^2
     ke = max(ts["kinetic_energy"])
     for k in ("momentum_x", "momentum_y"):
-        assert np.max(np.abs(ts[k])) < 1e-12 * math.sqrt(2 * ke * m[0]), k
+        mom = np.array(ts[k])
+        assert np.max(np.abs(mom - mom[0])) < 1e-12 * math.sqrt(2 * ke * m[0]), k
 
 
 def test_snapshots():
@@ -151,7 +154,7 @@ def test_help_and_defaults():
 
 def test_blow_up_stops_with_diagnostic_and_keeps_outputs():
     # A deliberately unstable set-up (no viscosity, no diffusion, h = dx,
-    # c0 = 3 A0 R, a force limit that never binds): the density of a
+    # c0 = 3 A0 R, a force limit that never binds, rings): the density of a
     # particle goes negative at step 202 (t A0 = 3.55).  The run must stop
     # there with a non-zero exit, name the step, time and particle, and
     # leave the snapshots and time series written before it complete.
@@ -160,7 +163,7 @@ def test_blow_up_stops_with_diagnostic_and_keeps_outputs():
                  "numerics.integrator=pc2", "numerics.cfl=1.0", "numerics.cfl_force=100",
                  "numerics.viscosity=none", "numerics.diffusion=none", "physics.c0=3",
                  "particles.h_over_dx=1.0", "numerics.divergence=standard",
-                 "numerics.pressure_gradient=standard"])
+                 "numerics.pressure_gradient=standard", "particles.placement=rings"])
     assert p.returncode != 0, p.out
     assert "no longer finite" in p.stderr and "step" in p.stderr and "particle id" in p.stderr
     snaps = sorted(d.glob("snap_*.h5"))
