@@ -299,7 +299,8 @@ def test_validate_quick_writes_report():
     script("validate", "--quick", "--cases", "circle2d", "--runs", tmp / "runs",
            "--doc", tmp / "doc", "--sph", SPH)
     md = (tmp / "doc" / "validation.md").read_text()
-    assert "| 1,257 |" in md and "least squares" in md and "Beside the paper's claims" in md
+    # the smallest packed disc: 1,256 particles for particles.n = 1250
+    assert "| 1,256 |" in md and "least squares" in md and "Beside the paper's claims" in md
     for png in ("convergence", "fig1", "pressure_error", "spectrum"):
         assert (tmp / "doc" / f"validation_circle2d_{png}.png").exists(), png
 
