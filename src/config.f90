@@ -1247,32 +1247,16 @@ contains
       return
     end if
 
-    if (len_trim(c%run%restart) > 0) then
-      call origin_of(origins, path, 'run.restart', origin, line)
-      block
-        logical :: exists
-        inquire(file=trim(c%run%restart), exist=exists)
-        if (.not. exists) then
-          call fail(err, origin, '&run restart = ' // quoted(trim(c%run%restart)) // &
-                    ' does not exist', line, ': give an existing snapshot file ' // &
-                    '(snap_NNNNN.h5 in a run directory), or leave it empty')
-          return
-        end if
-      end block
-    end if
-
+    call require_file(err, origins, path, 'run.restart', trim(c%run%restart), &
+                      ': give an existing snapshot file (snap_NNNNN.h5 in a run directory), ' // &
+                      'or leave it empty')
+    if (allocated(err)) return
+    call require_file(err, origins, path, 'particles.from', trim(c%particles%from), &
+                      ': give an existing snapshot file of a run with placement = ''packed'', ' // &
+                      'or leave it empty')
+    if (allocated(err)) return
     if (len_trim(c%particles%from) > 0) then
       call origin_of(origins, path, 'particles.from', origin, line)
-      block
-        logical :: exists
-        inquire(file=trim(c%particles%from), exist=exists)
-        if (.not. exists) then
-          call fail(err, origin, '&particles from = ' // quoted(trim(c%particles%from)) // &
-                    ' does not exist', line, ': give an existing snapshot file of a run ' // &
-                    'with placement = ''packed'', or leave it empty')
-          return
-        end if
-      end block
       if (c%particles%placement /= 'packed') then
         call fail(err, origin, '&particles from = ' // quoted(trim(c%particles%from)) // &
                   ' needs placement = ''packed''', line, ': the file holds a packed ' // &
@@ -1561,6 +1545,24 @@ contains
   !> The one way an error message is made: "origin: what (line N)hint".
   !> origin is the file or 'command line'; the line only if known (> 0);
   !> hint says what is allowed or what to do.
+  !> A non-empty file name given for variable `key` (group.name) must name
+  !> an existing file; err says so otherwise.
+  subroutine require_file(err, origins, path, key, file, hint)
+    character(len=:), allocatable, intent(inout) :: err
+    type(origin_t), intent(in) :: origins(:)
+    character(len=*), intent(in) :: path, key, file, hint
+    character(len=:), allocatable :: origin
+    integer :: line, dot
+    logical :: exists
+    if (len(file) == 0) return
+    inquire(file=file, exist=exists)
+    if (exists) return
+    call origin_of(origins, path, key, origin, line)
+    dot = index(key, '.')
+    call fail(err, origin, '&' // key(1:dot - 1) // ' ' // key(dot + 1:) // ' = ' // quoted(file) &
+              // ' does not exist', line, hint)
+  end subroutine require_file
+
   subroutine fail(err, origin, what, line, hint)
     character(len=:), allocatable, intent(inout) :: err
     character(len=*), intent(in) :: origin, what

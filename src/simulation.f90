@@ -477,6 +477,8 @@ contains
     write(output_unit, '(a)') '  kernel ' // trim(cfg%numerics%kernel) // ', integrator ' // &
       trim(cfg%numerics%integrator) // ', viscosity ' // trim(cfg%numerics%viscosity) // &
       ', diffusion ' // trim(cfg%numerics%diffusion)
+    if (len_trim(cfg%particles%from) > 0) write(output_unit, '(a)') &
+      '  packed particles from ' // trim(cfg%particles%from)
     if (run%pack_report%iterations > 0) write(output_unit, '(a,i0,a,f7.2,a,i0,a,es9.2,a,i0,a)') &
       '  packed in ', run%pack_report%iterations, ' iterations, ', run%pack_report%wall, &
       ' s (', run%pack_report%rebuilds, ' list builds, last move ', &

@@ -180,3 +180,22 @@ def test_ellipsoid3d_one_and_two_ranks():
     assert na == nb and ta == tb
     for k in FIELDS:
         assert np.array_equal(a[k].view(np.int64), b[k].view(np.int64)), k
+
+
+def test_packed_particles_from_snapshot():
+    # particles.from: a run that reads the packed positions of another run's
+    # first snapshot (on 2 ranks, the packing run on 1) ends bitwise where
+    # the packing run ends, and packs nothing itself
+    d1 = scratch("packfrom1") / "run"
+    d2 = scratch("packfrom2") / "run"
+    common = ["input/circle2d.nml", "particles.n=1250", "run.t_end=0.25", "output.dt=0.25"]
+    p = run_sph(common + [f"output.dir={d1}"], np=1)
+    assert p.returncode == 0, p.out
+    assert "packed in" in p.stdout
+    p = run_sph(common + [f"output.dir={d2}", f"particles.from={d1 / 'snap_00000.h5'}"], np=2)
+    assert p.returncode == 0, p.out
+    assert "packed in" not in p.stdout and "packed particles from" in p.stdout
+    (a, ta, na), (b, tb, nb) = final_state(d1), final_state(d2)
+    assert na == nb and ta == tb
+    for k in FIELDS:
+        assert np.array_equal(a[k].view(np.int64), b[k].view(np.int64)), k
