@@ -230,14 +230,14 @@ module config
     var_t(G_PARTICLES, 'n', T_INT, SCALAR, LO_GE, HI_LE, 50.0_wp, 2000000000.0_wp, CH_NONE, &
           '', 'approximate number of particles; the spacing dx follows from it'), &
     var_t(G_PARTICLES, 'placement', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_PLACEMENT, '', 'rings: concentric rings (shells) of spacing dx; ' // &
-          'lattice: square (cubic) lattice clipped; packed: relaxed (doc/packing.md)'), &
+          CH_PLACEMENT, '', 'rings: concentric rings (shells); lattice: square (cubic) ' // &
+          'lattice clipped; packed: relaxed (doc/packing.md)'), &
     var_t(G_PARTICLES, 'h_over_dx', T_REAL, SCALAR, LO_GE, HI_LE, 1.0_wp, 4.0_wp, CH_NONE, &
           '', 'smoothing length h over particle spacing dx'), &
     var_t(G_PARTICLES, 'pack_iterations', T_INT, SCALAR, LO_GE, HI_LE, 1.0_wp, 100000.0_wp, &
           CH_NONE, '', 'most iterations of the packing (placement = ''packed'')'), &
     var_t(G_PARTICLES, 'from', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
-          'empty, or an existing snapshot of a packed run of the same case', &
+          'empty, or a snapshot of a packed run of the same case', &
           'snapshot whose initial positions are the packed particles (empty: pack anew)'), &
     var_t(G_PHYSICS, 'rho0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
           'reference density'), &
