@@ -1,4 +1,4 @@
-!> A small test harness whose names mirror pFUnit (see ../shared/TESTING.md).
+!> A small test harness whose names mirror pFUnit (pFUnit is not packaged for Debian: README).
 !>
 !> A test is a procedure without arguments, run by run_test(suite, name, proc).
 !> Assertions record failures on the calling rank; run_test reduces them over
