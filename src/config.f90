@@ -54,6 +54,8 @@ module config
     [character(len=NAME_LEN) :: 'molteni', 'antuono', 'none']
   character(len=NAME_LEN), parameter :: PRESSURE_GRADIENTS(*) = &
     [character(len=NAME_LEN) :: 'standard', 'higher_order']
+  character(len=NAME_LEN), parameter :: RENORMALISE_WHEN(*) = &
+    [character(len=NAME_LEN) :: 'stage', 'step']
   character(len=NAME_LEN), parameter :: DIVERGENCES(*) = &
     [character(len=NAME_LEN) :: 'standard', 'renormalised']
   character(len=NAME_LEN), parameter :: DECOMPOSITIONS(*) = &
@@ -104,6 +106,7 @@ module config
     integer :: tensile_n = 4
     !> (E4) or the corrected form of DESIGN.md section 5
     character(len=NAME_LEN) :: pressure_gradient = 'standard'
+    character(len=NAME_LEN) :: renormalise = 'stage'     !< first pass every stage, or step
     character(len=NAME_LEN) :: divergence = 'standard'   !< (E1), or renormalised (E3)
     logical :: shifting = .false.                        !< (E8) particle shifting
   end type numerics_params_t
@@ -197,7 +200,7 @@ module config
   integer, parameter :: CH_NONE = 0, CH_CASE = 1, CH_PLACEMENT = 2, CH_EOS = 3, &
                         CH_KERNEL = 4, CH_INTEGRATOR = 5, CH_VISCOSITY = 6, CH_DIFFUSION = 7, &
                         CH_DECOMPOSITION = 8, CH_BALANCE = 9, CH_PRESSURE_GRADIENT = 10, &
-                        CH_DIVERGENCE = 11
+                        CH_DIVERGENCE = 11, CH_RENORMALISE = 12
   integer, parameter :: SCALAR(2) = [0, 0]
 
   !> A variable of a group: the one place that says what it is and what is
@@ -284,6 +287,9 @@ module config
     var_t(G_NUMERICS, 'divergence', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_DIVERGENCE, '', 'velocity divergence of the continuity equation: standard, ' // &
           'or renormalised (exact for linear u)'), &
+    var_t(G_NUMERICS, 'renormalise', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
+          CH_RENORMALISE, '', 'L_i and lambda_i of the renormalised operators at every ' // &
+          'stage, or once a step (doc/numerics.md)'), &
     var_t(G_NUMERICS, 'shifting', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_NONE, '', 'particle shifting after each step (delta-plus-SPH, Sun et al. ' // &
           '2017), none on the free surface'), &
@@ -1028,13 +1034,13 @@ contains
     integer, intent(out) :: ios
     character(len=*), intent(inout) :: iomsg
     character(len=NAME_LEN) :: kernel, integrator, viscosity, diffusion
-    character(len=NAME_LEN) :: pressure_gradient, divergence
+    character(len=NAME_LEN) :: pressure_gradient, divergence, renormalise
     real(wp) :: cfl, cfl_force, cfl_visc, alpha, delta, skin, tensile_eps
     logical :: tensile, shifting
     integer :: tensile_n
     namelist /numerics/ kernel, integrator, cfl, cfl_force, cfl_visc, viscosity, alpha, &
                         diffusion, delta, skin, tensile, tensile_eps, tensile_n, &
-                        pressure_gradient, divergence, shifting
+                        pressure_gradient, divergence, shifting, renormalise
     kernel = p%kernel
     integrator = p%integrator
     cfl = p%cfl
@@ -1051,6 +1057,7 @@ contains
     pressure_gradient = p%pressure_gradient
     divergence = p%divergence
     shifting = p%shifting
+    renormalise = p%renormalise
     read(text, nml=numerics, iostat=ios, iomsg=iomsg)
     if (ios /= 0) return
     p%kernel = kernel
@@ -1069,6 +1076,7 @@ contains
     p%pressure_gradient = pressure_gradient
     p%divergence = divergence
     p%shifting = shifting
+    p%renormalise = renormalise
   end subroutine read_numerics
 
   subroutine read_output(text, p, ios, iomsg)
@@ -1199,6 +1207,7 @@ contains
     c%numerics%diffusion = lower(adjustl(c%numerics%diffusion))
     c%numerics%pressure_gradient = lower(adjustl(c%numerics%pressure_gradient))
     c%numerics%divergence = lower(adjustl(c%numerics%divergence))
+    c%numerics%renormalise = lower(adjustl(c%numerics%renormalise))
   end subroutine normalise_words
 
   !> Every value on its own (ranges and lists from VARS), then the rules
@@ -1487,6 +1496,8 @@ contains
       x = real(c%numerics%tensile_n, wp)
     case ('numerics.pressure_gradient')
       text = quoted(c%numerics%pressure_gradient)
+    case ('numerics.renormalise')
+      text = quoted(c%numerics%renormalise)
     case ('numerics.divergence')
       text = quoted(c%numerics%divergence)
     case ('numerics.shifting')
@@ -1801,6 +1812,8 @@ contains
       list = PRESSURE_GRADIENTS
     case (CH_DIVERGENCE)
       list = DIVERGENCES
+    case (CH_RENORMALISE)
+      list = RENORMALISE_WHEN
     case default
       allocate(list(0))
     end select

@@ -16,7 +16,8 @@ module placement
   use kinds, only: wp, pi, i8
   implicit none
   private
-  public :: place_ball, ball_spacing, PLACE_RINGS, PLACE_LATTICE, PLACE_PACKED, hash_uniform
+  public :: place_ball, ball_spacing, PLACE_RINGS, PLACE_LATTICE, PLACE_PACKED, hash_uniform, &
+            packed_volume
 
   integer, parameter :: PLACE_RINGS = 1, PLACE_LATTICE = 2, PLACE_PACKED = 3
   real(wp), parameter :: PACK_NOISE = 1.0_wp
@@ -73,12 +74,21 @@ contains
       r = norm2(x(:, i))
       if (r > r_max) x(:, i) = x(:, i) * (r_max / r)
     end do
-    if (dim == 2) then
-      vol = pi * radius**2 / size(vol)
-    else
-      vol = 4 * pi * radius**3 / (3 * size(vol))
-    end if
+    vol = packed_volume(dim, radius, size(vol, kind=i8))
   end subroutine perturb
+
+  !> The volume of each of n packed particles, |Omega|/n (one expression for
+  !> the packing and for particles.from, so that both round alike).
+  pure real(wp) function packed_volume(dim, radius, n) result(v)
+    integer, intent(in) :: dim
+    real(wp), intent(in) :: radius
+    integer(i8), intent(in) :: n
+    if (dim == 2) then
+      v = pi * radius**2 / real(n, wp)
+    else
+      v = 4 * pi * radius**3 / (3 * real(n, wp))
+    end if
+  end function packed_volume
 
   !> A number in [0, 1) from (i, k) by a few rounds of the Park-Miller
   !> generator, each followed by an xor-shift that breaks its linearity (so

@@ -29,6 +29,7 @@ module simulation
   use restart, only: restart_read, restart_index_history, snapshot_number
   use domain, only: DECOMP_SLAB, DECOMP_METIS
   use packing, only: packing_params_t, packing_report_t, pack_ball
+  use placement, only: packed_volume
   implicit none
   private
   public :: simulation_run
@@ -232,6 +233,7 @@ contains
     s%rhs%divergence = merge(DIV_RENORMALISED, DIV_STANDARD, &
                              cfg%numerics%divergence == 'renormalised')
     s%shifting = cfg%numerics%shifting
+    s%renormalise_per_step = cfg%numerics%renormalise == 'step'
     s%shift_dx = dx
     select case (cfg%numerics%viscosity)
     case ('none')
@@ -309,8 +311,7 @@ contains
       ok = .false.
       return
     end if
-    vol = merge(acos(-1.0_wp) * radius**2, 4 * acos(-1.0_wp) * radius**3 / 3, dim == 2) / &
-          par_sum(env, real(s%parts%n, wp))
+    vol = packed_volume(dim, radius, nint(par_sum(env, real(s%parts%n, wp)), i8))
     dx = vol**(1 / real(dim, wp))
     s%parts%m(1:s%parts%n) = vol
     s%parts%rho(1:s%parts%n) = 1

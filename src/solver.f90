@@ -61,6 +61,11 @@ module solver
     integer(i8) :: n_migrated = 0              !< particles that changed rank
     real(wp) :: comm_time = 0                  !< wall time in halo exchanges and migration
     logical :: force_rebuild = .false.         !< rebuild at the start of the next step
+    !> L_i and lambda_i of the first pass at the first stage of a step only,
+    !> kept for its other stages (numerics.renormalise = 'step'); without
+    !> the Antuono diffusion, whose density gradient changes with rho
+    logical :: renormalise_per_step = .false.
+    logical :: first_stage = .true.            !< the evaluation is a step's first
   end type solver_t
 
 contains
@@ -178,17 +183,22 @@ contains
     type(parallel_env_t), intent(in) :: env
     integer :: ntot
     real(wp) :: t0
-    logical :: antuono, corrected, first_pass
+    logical :: antuono, corrected, first_pass, fresh
     antuono = s%rhs%diffusion == DIFF_ANTUONO
     corrected = s%rhs%pressure_gradient == PGRAD_HIGHER_ORDER
     first_pass = antuono .or. corrected .or. s%rhs%divergence == DIV_RENORMALISED
+    ! the stage's own L_i, or (renormalise_per_step) the step's first one
+    fresh = antuono .or. s%first_stage .or. .not. s%renormalise_per_step
     associate(pt => s%parts)
       t0 = wall_time()
       call halo_refresh(s%halo, env, pt)
       s%comm_time = s%comm_time + (wall_time() - t0)
       ntot = pt%n + pt%n_halo
       pt%p(1:ntot) = eos_pressure(s%eos, pt%rho(1:ntot))
-      if (first_pass) then
+      if (first_pass .and. .not. fresh) then
+        call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
+                          s%nl, s%drho, s%du, s%lambda(1, :), s%lmat)
+      else if (first_pass) then
         if (antuono) then
           call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%nl, &
                                    s%lambda(1, :), lmat=s%lmat, grad_rho=s%grad_rho)
@@ -297,7 +307,9 @@ contains
     end if
     n = s%parts%n      ! migration may have changed it
 
+    s%first_stage = .true.
     call solver_evaluate(s, env)
+    s%first_stage = .false.
     call solver_time_step(s, env, dt)
     dt = min(dt, dt_limit)
 

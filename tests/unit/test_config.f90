@@ -81,7 +81,7 @@ contains
     end do
     close(u, status='delete')
     ! 43 variables, probes written once (probe 1, as n_probes = 1)
-    call assert_equal(49, nvars, 'variable lines in the defaults file')
+    call assert_equal(50, nvars, 'variable lines in the defaults file')
     call assert_equal(nvars, ncommented, 'variable lines with a comment saying what is allowed')
   end subroutine defaults_round_trip
 
@@ -120,6 +120,7 @@ contains
     c%numerics%tensile_n = 3
     c%numerics%pressure_gradient = 'higher_order'
     c%numerics%divergence = 'renormalised'
+    c%numerics%renormalise = 'step'
     c%numerics%shifting = .true.
     c%output%dir = 'runs/it''s!a test'
     c%output%dt = 1.0e-5_wp
@@ -575,6 +576,8 @@ contains
     call assert_equal(e%particles%pack_iterations, a%particles%pack_iterations, &
                       l // 'particles.pack_iterations')
     call assert_equal(trim(e%particles%from), trim(a%particles%from), l // 'particles.from')
+    call assert_equal(trim(e%numerics%renormalise), trim(a%numerics%renormalise), &
+                      l // 'numerics.renormalise')
     call assert_true(e%ellipsoid3d%prepared .eqv. a%ellipsoid3d%prepared, &
                      l // 'ellipsoid3d.prepared')
     call assert_equal(trim(e%parallel%decomposition), trim(a%parallel%decomposition), &
