@@ -133,7 +133,7 @@ contains
       r2 = sum(parts%x(:, i)**2)
       parts%u(:, i) = self%a0 * self%rates * parts%x(:, i) &
                       - kappa * (1.0_wp / d - r2 / ((d + 2) * self%radius**2)) * parts%x(:, i)
-      p = self%p0 * (1 - sum(parts%x(:, i)**2) / self%radius**2)
+      p = self%p0 * (1 - r2 / self%radius**2)
       parts%p(i) = p
       parts%rho(i) = eos_density(eos, p)
       parts%m(i) = parts%rho(i) * vol

@@ -24,7 +24,7 @@ module packing
   implicit none
   private
   public :: packing_params_t, packing_report_t, pack_ball, exterior_table_t, &
-            exterior_table_init, exterior_slope, kernel_sum, PACK_TABLE_SIZE
+            exterior_table_init, exterior_slope, PACK_TABLE_SIZE
 
   integer, parameter :: PACK_TABLE_SIZE = 2048
 
@@ -155,37 +155,6 @@ contains
     gam(n + 1:ntot) = 0
   end subroutine sum_gradient
 
-  !> The kernel sum Sum_j W_ij V (self included; no exterior part) of the
-  !> n owned particles, from the half list: a measure of the packing.
-  subroutine kernel_sum(kernel, n, ntot, x, vol, nl, gam)
-    type(kernel_t), intent(in) :: kernel
-    integer, intent(in) :: n, ntot
-    real(wp), intent(in) :: x(3, ntot), vol
-    type(neighbour_list_t), intent(in) :: nl
-    real(wp), intent(out) :: gam(ntot)
-    real(wp), allocatable :: xl(:, :), r2l(:), fl(:)
-    integer, allocatable :: jl(:)
-    real(wp) :: si, s2, w
-    integer :: kk, i, j, l, nn
-    s2 = kernel%support**2
-    call pair_buffers(nl, jl, xl, r2l, fl)
-    gam = 0
-    do kk = 1, nl%n_rows
-      i = nl%row(kk)
-      call in_range_pairs(kk, i, x, s2, nl, nn, jl, xl, r2l)
-      si = 0
-      do l = 1, nn
-        j = jl(l)
-        w = kernel_w(kernel, sqrt(r2l(l)))
-        si = si + w
-        gam(j) = gam(j) + w
-      end do
-      gam(i) = gam(i) + si
-    end do
-    gam(1:n) = vol * (gam(1:n) + kernel_w(kernel, 0.0_wp))
-    gam(n + 1:ntot) = 0
-  end subroutine kernel_sum
-
   !> Relaxes the owned particles of s%parts (P2, P3) in place, on the
   !> solver's decomposition, halo and neighbour list (rebuilt when the
   !> particles have moved by half the skin since the last build).  The
@@ -197,12 +166,11 @@ contains
     type(packing_params_t), intent(in) :: prm
     type(packing_report_t), intent(out) :: rep
     type(exterior_table_t) :: tab
-    type(kernel_t) :: kern
     real(wp), allocatable :: grad(:, :), gam(:), inner(:, :)
     real(wp) :: vol, coef, level, sums(2), dmax_abs, r_clip, r, d(3), dn, moved, vmax, t0, h
     integer :: i, it, n, ntot, clipped
     t0 = wall_time()
-    kern = s%rhs%kernel
+    associate(kern => s%rhs%kernel)
     h = kern%h
     vol = prm%dx**s%parts%dim
     coef = prm%beta * h**2
@@ -224,8 +192,10 @@ contains
       call halo_refresh(s%halo, env, s%parts)
       n = s%parts%n
       ntot = n + s%parts%n_halo
+      ! work arrays as large as the particle arrays, which migration and
+      ! the halo may have grown at the rebuild
       if (allocated(grad)) then
-        if (size(grad, 2) < ntot) deallocate(grad)
+        if (size(grad, 2) < ntot) deallocate(grad, gam)
       end if
       if (.not. allocated(grad)) allocate(grad(3, size(s%parts%x, 2)), gam(size(s%parts%x, 2)))
       call sum_gradient(kern, n, ntot, s%parts%x, vol, s%nl, grad, gam)
@@ -269,6 +239,7 @@ contains
       rep%last_move = vmax / prm%dx
       if (vmax < prm%tolerance * prm%dx) exit
     end do
+    end associate
     rep%clipped = nint(par_sum(env, real(clipped, wp)))
     s%parts%u = 0
     rep%wall = wall_time() - t0
