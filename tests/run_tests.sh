@@ -34,8 +34,21 @@ for np in $NP_TEST; do
   tally "$tmp/unit_$np.log" "unit tests at np $np"
 done
 
-echo "== integration tests"
-"$PYTHON" tests/integration/run_integration.py 2>&1 | tee "$tmp/integ.log"
+echo "== integration tests (pytest)"
+"$PYTHON" -m pytest tests/integration -v -rfEs -p no:cacheprovider --durations=10 2>&1 | tee "$tmp/integ.log"
+rc=${PIPESTATUS[0]}
+# pytest ends with e.g. "== 36 passed, 1 failed, 1 skipped, 1 error in 201.3s ==":
+# restate it as the line tally reads; an error (a fixture's run failed, a
+# module did not import) counts as a failure, and so does a non-zero exit
+# with nothing failed (no test collected, interrupted)
+line=$(grep -E '^=* ?(no tests ran|[0-9]+ [a-z]+.* in [0-9.]+s)' "$tmp/integ.log" | tail -n 1)
+if [ -n "$line" ]; then
+  count() { echo "$line" | grep -oE "[0-9]+ $1" | head -n 1 | cut -d' ' -f1; }
+  p=$(count passed); f=$(count failed); e=$(count 'errors?'); s=$(count skipped)
+  f=$(( ${f:-0} + ${e:-0} ))
+  [ "$rc" -ne 0 ] && [ "$f" -eq 0 ] && f=1
+  echo "${p:-0} passed, $f failed, ${s:-0} skipped" | tee -a "$tmp/integ.log"
+fi
 tally "$tmp/integ.log" "integration tests"
 
 echo

@@ -1,10 +1,9 @@
-"""Shared helpers for the integration tests: run ./sph (under mpirun), make
-scratch directories, read the outputs."""
+"""Shared helpers for the integration tests: run ./sph (under mpirun), read
+the outputs.  Run directories come from the `scratch` fixture (conftest.py)."""
 import csv
 import os
 import pathlib
 import subprocess
-import tempfile
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 # SPH_BINARY runs the tests against another build (e.g. build/x/sph) than ./sph.
@@ -23,11 +22,6 @@ def run_sph(args, np=1, cwd=None, timeout=600):
                        timeout=timeout)
     p.out = p.stdout + p.stderr
     return p
-
-
-def scratch(prefix):
-    """A fresh temporary directory (left for inspection under /tmp)."""
-    return pathlib.Path(tempfile.mkdtemp(prefix=f"sph_{prefix}_"))
 
 
 def read_timeseries(path):

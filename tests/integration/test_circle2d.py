@@ -1,30 +1,27 @@
 """circle2d end to end: a short run against the exact solution, the output
 files it leaves, and the behaviour of the executable on its command line."""
 import math
-import pathlib
 import xml.etree.ElementTree as ET
 
 import h5py
 import numpy as np
+import pytest
 
-from common import ROOT, SPH, ENV, run_sph, scratch, read_timeseries
-
-_RUN = {}
+from common import run_sph, read_timeseries
 
 
-def short_run():
+@pytest.fixture(scope="module")
+def short_run(scratch):
     """circle2d with about 1,250 particles to t A0 = 0.5, snapshots every
-    0.25: run once, shared by the tests below."""
-    if "dir" not in _RUN:
-        d = scratch("circle2d") / "run"
-        p = run_sph(["input/circle2d.nml", "particles.n=1250", "run.t_end=0.5",
-                     "output.dt=0.25", f"output.dir={d}"])
-        assert p.returncode == 0, p.out
-        _RUN.update(dir=d, out=p.out)
-    return _RUN["dir"], _RUN["out"]
+    0.25: run once, shared by the tests below.  (run directory, output)"""
+    d = scratch("circle2d") / "run"
+    p = run_sph(["input/circle2d.nml", "particles.n=1250", "run.t_end=0.5",
+                 "output.dt=0.25", f"output.dir={d}"])
+    assert p.returncode == 0, p.out
+    return d, p.out
 
 
-def test_short_run_accuracy():
+def test_short_run_accuracy(short_run):
     # Thresholds: 1.5x the errors measured at this resolution (N = 1,250,
     # t A0 = 0.5) with the input file's scheme (packed particles,
     # renormalised divergence, higher-order pressure gradient blended and
@@ -32,7 +29,7 @@ def test_short_run_accuracy():
     # semi-axis error 0.158 %, KE change -0.491 %, time-averaged raw centre
     # pressure 1.39 % of P(0) (the standard operators: 1.32 % velocity at
     # 1,250 on rings, which these thresholds reject).
-    d, _ = short_run()
+    d, _ = short_run
     ts = read_timeseries(d / "timeseries.csv")
     last = {k: v[-1] for k, v in ts.items()}
     assert abs(last["time"] - 0.5) < 1e-12, last["time"]
@@ -57,7 +54,7 @@ def test_short_run_accuracy():
     assert np.mean(np.abs(p - pe)) / 0.5 < 0.021
 
 
-def test_conservation():
+def test_conservation(scratch):
     # mass is carried by particles (exactly constant); with the standard
     # pressure gradient (E4) the pair forces are antisymmetric, so momentum
     # stays at its initial value to round-off (on packed particles that
@@ -77,8 +74,8 @@ def test_conservation():
         assert np.max(np.abs(mom - mom[0])) < 1e-12 * math.sqrt(2 * ke * m[0]), k
 
 
-def test_snapshots():
-    d, out = short_run()
+def test_snapshots(short_run):
+    d, out = short_run
     files = sorted(d.glob("snap_*.h5"))
     assert [f.name for f in files] == ["snap_00000.h5", "snap_00001.h5", "snap_00002.h5"]
     assert not list(d.glob(".*tmp*")) and not list(d.glob("*.tmp")), "temporary files left"
@@ -107,14 +104,14 @@ def test_snapshots():
     assert len(grids) == 3
 
 
-def test_progress_and_summary_printed():
-    _, out = short_run()
+def test_progress_and_summary_printed(short_run):
+    _, out = short_run
     assert "step" in out and "ETA" in out and "dt" in out
     assert "Errors against the exact solution" in out
     assert "semi-axis x" in out and "RMS velocity error" in out
 
 
-def test_bad_input_writes_nothing():
+def test_bad_input_writes_nothing(scratch):
     d = scratch("badinput") / "never"
     cases = [
         (["numerics.cfl=-1"], ["&numerics", "cfl", "-1"]),
@@ -137,7 +134,7 @@ def test_bad_input_writes_nothing():
     assert not d.exists()
 
 
-def test_help_and_defaults():
+def test_help_and_defaults(scratch):
     p = run_sph(["--help"])
     assert p.returncode == 0 and "usage" in p.stdout
     p = run_sph(["--defaults"])
@@ -152,7 +149,7 @@ def test_help_and_defaults():
     assert (d / "run" / "input.nml").exists()
 
 
-def test_blow_up_stops_with_diagnostic_and_keeps_outputs():
+def test_blow_up_stops_with_diagnostic_and_keeps_outputs(scratch):
     # A deliberately unstable set-up (no viscosity, no diffusion, h = dx,
     # c0 = 3 A0 R, a force limit that never binds, rings): the density of a
     # particle goes negative at step 202 (t A0 = 3.55).  The run must stop

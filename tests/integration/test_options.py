@@ -1,6 +1,6 @@
 """Every numerics switch runs circle2d end to end and stays close to the exact
 solution; ellipsoid3d (same code, dim = 3) runs and is accurate too."""
-from common import run_sph, scratch, read_timeseries
+from common import run_sph, read_timeseries
 
 # circle2d, about 1,250 particles to t A0 = 0.25.  At this time the default
 # scheme has RMS velocity error 0.95 %, KE change -0.45 %, semi-axis errors
@@ -26,7 +26,7 @@ VARIANTS = [
 ]
 
 
-def errors(args, n=1250, t_end=0.25, case="input/circle2d.nml"):
+def errors(scratch, args, n=1250, t_end=0.25, case="input/circle2d.nml"):
     d = scratch("option") / "run"
     p = run_sph([case, f"particles.n={n}", f"run.t_end={t_end}", f"output.dt={t_end}",
                  f"output.dir={d}", "output.snapshots=.false."] + args)
@@ -38,10 +38,10 @@ def errors(args, n=1250, t_end=0.25, case="input/circle2d.nml"):
             max(abs(a) for a in axes))
 
 
-def test_each_numerics_option_runs_and_is_accurate():
+def test_each_numerics_option_runs_and_is_accurate(scratch):
     failures = []
     for args in VARIANTS:
-        vel, dke, axis = errors(args)
+        vel, dke, axis = errors(scratch, args)
         print(f"    {' '.join(args):55s} vel {100 * vel:6.3f} %  KE {100 * dke:7.3f} %"
               f"  axis {100 * axis:6.3f} %")
         if not (vel < 0.03 and abs(dke) < 0.02 and axis < 0.01):
@@ -49,19 +49,19 @@ def test_each_numerics_option_runs_and_is_accurate():
     assert not failures, failures
 
 
-def test_ellipsoid3d_short_run():
+def test_ellipsoid3d_short_run(scratch):
     # 3D from the same code: about 4,000 particles with the input file's
     # scheme (packed, h = 1.6 dx, renormalised divergence, higher-order
     # gradient, L_i once a step, prepared start) to t A0 = 0.2.  Measured:
     # RMS velocity error 0.409 %, KE change -0.171 %, semi-axes within
     # 0.067 % (the standard operators on shells: 1.56 %, -0.42 %, 0.057 %);
     # thresholds 1.5x.
-    vel, dke, axis = errors([], n=4000, t_end=0.2, case="input/ellipsoid3d.nml")
+    vel, dke, axis = errors(scratch, [], n=4000, t_end=0.2, case="input/ellipsoid3d.nml")
     print(f"    ellipsoid3d: vel {100 * vel:.3f} %  KE {100 * dke:.3f} %  axis {100 * axis:.3f} %")
     assert vel < 0.0061 and abs(dke) < 0.0026 and axis < 0.0010, (vel, dke, axis)
 
 
-def test_renormalised_operators_beat_standard():
+def test_renormalised_operators_beat_standard(scratch):
     # circle2d, 1,250 particles to t A0 = 0.25.  The renormalised divergence
     # (exact for the linear velocity field of this flow, also at the free
     # surface) and the higher-order pressure gradient cut the errors; the

@@ -4,7 +4,7 @@ not just to round-off: the tests ask for exact equality, matched by id."""
 import h5py
 import numpy as np
 
-from common import run_sph, scratch
+from common import run_sph
 
 FIELDS = ("position", "velocity", "density", "pressure")
 
@@ -16,7 +16,7 @@ def final_state(d):
         return {k: h[k][:][order] for k in FIELDS}, float(h.attrs["time"]), int(h.attrs["step"])
 
 
-def run(np_, extra, tag):
+def run(scratch, np_, extra, tag):
     d = scratch(f"par{np_}_{tag}") / "run"
     p = run_sph(["input/circle2d.nml", "particles.n=5000", "run.max_steps=100",
                  f"output.dir={d}", "output.dt=10"] + extra, np=np_)
@@ -24,11 +24,11 @@ def run(np_, extra, tag):
     return final_state(d), p.out
 
 
-def check_agreement(extra, tag, ranks):
-    (ref, t_ref, step_ref), _ = run(1, extra, tag)
+def check_agreement(scratch, extra, tag, ranks):
+    (ref, t_ref, step_ref), _ = run(scratch, 1, extra, tag)
     assert step_ref == 100
     for np_ in ranks:
-        (got, t, step), out = run(np_, extra, tag)
+        (got, t, step), out = run(scratch, np_, extra, tag)
         assert step == 100 and t == t_ref, (np_, step, t, t_ref)
         for k in FIELDS:
             same = np.array_equal(ref[k].view(np.int64), got[k].view(np.int64))
@@ -36,36 +36,38 @@ def check_agreement(extra, tag, ranks):
         assert "imbalance" in out
 
 
-def test_slab_bitwise_at_2_3_4_ranks():
+def test_slab_bitwise_at_2_3_4_ranks(scratch):
     # 100 steps of circle2d with about 5,000 particles, slab decomposition;
     # re-balancing and migration happen on the way (the patch stretches)
-    check_agreement([], "slab", [2, 3, 4])
+    check_agreement(scratch, [], "slab", [2, 3, 4])
 
 
-def test_slab_bitwise_with_density_gradient_exchange():
+def test_slab_bitwise_with_density_gradient_exchange(scratch):
     # the Antuono diffusion needs a second halo exchange (of the
     # renormalised density gradient) inside every right-hand side
-    check_agreement(["numerics.diffusion=antuono", "physics.eos=tait"], "antuono", [3])
+    check_agreement(scratch, ["numerics.diffusion=antuono", "physics.eos=tait"], "antuono", [3])
 
 
-def test_corrected_operators_and_shifting_bitwise():
+def test_corrected_operators_and_shifting_bitwise(scratch):
     # the higher-order pressure gradient needs the free-surface indicator of
     # halo copies (an exchange), the renormalised divergence the matrix L of
     # the first pass, and shifting a halo refresh after each step: all in
     # canonical order
-    check_agreement(["numerics.pressure_gradient=higher_order", "numerics.divergence=renormalised",
-                     "numerics.shifting=.true.", "numerics.diffusion=antuono"], "corrected", [2, 3])
+    check_agreement(scratch, ["numerics.pressure_gradient=higher_order",
+                              "numerics.divergence=renormalised", "numerics.shifting=.true.",
+                              "numerics.diffusion=antuono"], "corrected", [2, 3])
 
 
-def test_metis_bitwise_at_2_and_3_ranks():
-    check_agreement(["parallel.decomposition=metis"], "metis", [2, 3])
+def test_metis_bitwise_at_2_and_3_ranks(scratch):
+    check_agreement(scratch, ["parallel.decomposition=metis"], "metis", [2, 3])
 
 
-def test_pairs_balance_bitwise():
-    check_agreement(["parallel.balance=pairs", "parallel.imbalance_threshold=0.02"], "pairs", [2])
+def test_pairs_balance_bitwise(scratch):
+    check_agreement(scratch, ["parallel.balance=pairs", "parallel.imbalance_threshold=0.02"],
+                    "pairs", [2])
 
 
-def _restart_pair(np_a, np_b, extra_b=()):
+def _restart_pair(scratch, np_a, np_b, extra_b=()):
     """Run A: 200 steps with snapshots every 0.5 (the one at t = 0.5 comes
     at step 75).  Run B: a copy of A's directory cut after that snapshot,
     restarted from it to step 200.  Returns both final states and dirs."""
@@ -88,8 +90,8 @@ def _restart_pair(np_a, np_b, extra_b=()):
     return a, b
 
 
-def test_restart_bitwise_same_ranks():
-    a, b = _restart_pair(2, 2)
+def test_restart_bitwise_same_ranks(scratch):
+    a, b = _restart_pair(scratch, 2, 2)
     (sa, ta, na), (sb, tb, nb) = final_state(a), final_state(b)
     assert na == nb == 200 and ta == tb
     for k in FIELDS:
@@ -104,14 +106,14 @@ def test_restart_bitwise_same_ranks():
         (a / "snapshots.xdmf").read_text().count("<Grid Name")
 
 
-def test_restart_bitwise_other_ranks_and_decomposition():
-    a, b = _restart_pair(2, 3, ["parallel.decomposition=metis"])
+def test_restart_bitwise_other_ranks_and_decomposition(scratch):
+    a, b = _restart_pair(scratch, 2, 3, ["parallel.decomposition=metis"])
     (sa, _, _), (sb, _, _) = final_state(a), final_state(b)
     for k in FIELDS:
         assert np.array_equal(sa[k].view(np.int64), sb[k].view(np.int64)), k
 
 
-def test_bad_restart_writes_nothing():
+def test_bad_restart_writes_nothing(scratch):
     d = scratch("badrestart") / "never"
     p = run_sph(["input/circle2d.nml", f"output.dir={d}", "run.restart=/nonexistent/snap_00001.h5"])
     assert p.returncode != 0 and "&run restart" in p.stderr and "does not exist" in p.stderr
@@ -126,7 +128,7 @@ def test_bad_restart_writes_nothing():
     assert not d.exists()
 
 
-def test_square_vortical_parallel():
+def test_square_vortical_parallel(scratch):
     # the square cases too: dynamics bitwise; the vorticity field (a
     # diagnostic summed in its own local order, using halo copies brought
     # up to date before each snapshot) to round-off
@@ -145,7 +147,7 @@ def test_square_vortical_parallel():
     assert np.max(np.abs(a["vorticity"] - b["vorticity"])) < 1e-12 * np.max(np.abs(a["vorticity"]))
 
 
-def test_ellipsoid3d_one_and_two_ranks():
+def test_ellipsoid3d_one_and_two_ranks(scratch):
     # 3D with the input file's settings (packed particles, h = 1.6 dx,
     # renormalised divergence, higher-order gradient, L_i once a step,
     # prepared start): about 4,000 particles to t A0 = 1, the paper's end
@@ -183,7 +185,7 @@ def test_ellipsoid3d_one_and_two_ranks():
         assert np.array_equal(a[k].view(np.int64), b[k].view(np.int64)), k
 
 
-def test_packed_particles_from_snapshot():
+def test_packed_particles_from_snapshot(scratch):
     # particles.from: a run that reads the packed positions of another run's
     # first snapshot (on 2 ranks, the packing run on 1) ends bitwise where
     # the packing run ends, and packs nothing itself

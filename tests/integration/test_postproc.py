@@ -8,8 +8,9 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
-from common import ROOT, SPH, run_sph, scratch, read_timeseries
+from common import ROOT, SPH, run_sph, read_timeseries
 
 POSTPROC = ROOT / "postproc"
 sys.path.insert(0, str(POSTPROC))
@@ -17,7 +18,6 @@ import sphpost as sp  # noqa: E402
 
 PY = "/usr/bin/python3"
 SCRIPTS = ["errors", "filter", "convergence", "plots", "validate"]
-_RUNS = {}
 
 
 def script(name, *args, check=True):
@@ -30,19 +30,33 @@ def script(name, *args, check=True):
     return p
 
 
-def tiny_run(n=1250, t_end=0.5, case="circle2d"):
-    """A run shared by the tests below: circle2d with n particles to t_end,
+def make_tiny_run(scratch, n=1250, t_end=0.5, case="circle2d"):
+    """A run for the tests below: circle2d with n particles to t_end,
     snapshots every 0.25 (a few seconds at most), with the paper's standard
-    operators, whose acoustic noise the filter tests need."""
-    key = (case, n, t_end)
-    if key not in _RUNS:
-        d = scratch(f"postproc_{case}_{n}") / "run"
-        p = run_sph([f"input/{case}.nml", f"particles.n={n}", f"run.t_end={t_end}",
-                     "output.dt=0.25", f"output.dir={d}", "numerics.divergence=standard",
-                     "numerics.pressure_gradient=standard"])
-        assert p.returncode == 0, p.out
-        _RUNS[key] = (d, p.out)
-    return _RUNS[key]
+    operators, whose acoustic noise the filter tests need.  Returns (run
+    directory, output)."""
+    d = scratch(f"postproc_{case}_{n}") / "run"
+    p = run_sph([f"input/{case}.nml", f"particles.n={n}", f"run.t_end={t_end}",
+                 "output.dt=0.25", f"output.dir={d}", "numerics.divergence=standard",
+                 "numerics.pressure_gradient=standard"])
+    assert p.returncode == 0, p.out
+    return d, p.out
+
+
+# Each run once, shared by the tests that ask for it.
+@pytest.fixture(scope="module")
+def tiny_run(scratch):
+    return make_tiny_run(scratch)
+
+
+@pytest.fixture(scope="module")
+def tiny_run_5000(scratch):
+    return make_tiny_run(scratch, 5000)
+
+
+@pytest.fixture(scope="module")
+def tiny_run_ellipsoid3d(scratch):
+    return make_tiny_run(scratch, 1000, 0.25, "ellipsoid3d")
 
 
 # ---------------------------------------------------------------------------
@@ -183,8 +197,8 @@ def test_filtered_error_exact_at_the_ends_in_3d():
     assert mean_old > 0.03 and abs(pf[0] - pu[0]) > 0.05, (mean_old, pf[0] - pu[0])
 
 
-def test_errors_agree_with_the_solver():
-    d, out = tiny_run()
+def test_errors_agree_with_the_solver(tiny_run):
+    d, out = tiny_run
     ts = read_timeseries(d / "timeseries.csv")
     csv_path = d.parent / "errors.csv"
     p = script("errors", d, "--check-snapshots", "--csv", csv_path)
@@ -230,8 +244,8 @@ def h5_ids(d):
         return f["id"][:]
 
 
-def test_filter_script_writes_filtered_probe():
-    d, _ = tiny_run()
+def test_filter_script_writes_filtered_probe(tiny_run):
+    d, _ = tiny_run
     out = d.parent / "filtered.csv"
     p = script("filter", d, "-o", out)
     assert "spectral peak" in p.stdout and str(out) in p.stdout, p.stdout
@@ -248,9 +262,9 @@ def test_filter_script_writes_filtered_probe():
     assert np.std(np.diff(f["p_probe_1_filtered"], 2)) < 0.2 * np.std(np.diff(f["p_probe_1"], 2))
 
 
-def test_convergence_script_orders():
-    d1, _ = tiny_run(1250)
-    d2, _ = tiny_run(5000)
+def test_convergence_script_orders(tiny_run, tiny_run_5000):
+    d1, _ = tiny_run
+    d2, _ = tiny_run_5000
     png = d2.parent / "conv.png"
     js = d2.parent / "conv.json"
     p = script("convergence", d2, d1, "-o", png, "--json", js)
@@ -272,16 +286,16 @@ def test_convergence_script_orders():
     assert f"{res['orders']['vel']['pairs'][0]:.2f}" in line
 
 
-def test_plots_circle_and_pressure():
-    d, _ = tiny_run()
+def test_plots_circle_and_pressure(tiny_run):
+    d, _ = tiny_run
     for what, args in (("circle", [d]), ("pressure", [d, d])):
         png = d.parent / f"{what}.png"
         script("plots", what, *args, "-o", png, "--dpi", "50")
         assert png.stat().st_size > 5000 and png.read_bytes()[:4] == b"\x89PNG", what
 
 
-def test_ellipsoid3d_errors_and_figure():
-    d, out = tiny_run(1000, 0.25, "ellipsoid3d")
+def test_ellipsoid3d_errors_and_figure(tiny_run_ellipsoid3d):
+    d, out = tiny_run_ellipsoid3d
     ts = read_timeseries(d / "timeseries.csv")
     js = json.loads(script("errors", d, "--json").stdout)
     assert js["case"] == "ellipsoid3d"
@@ -293,7 +307,7 @@ def test_ellipsoid3d_errors_and_figure():
     assert png.read_bytes()[:4] == b"\x89PNG"
 
 
-def test_validate_quick_writes_report():
+def test_validate_quick_writes_report(scratch):
     # the whole chain on the two smallest circle2d runs (a few seconds)
     tmp = scratch("validate")
     script("validate", "--quick", "--cases", "circle2d", "--runs", tmp / "runs",
@@ -305,7 +319,7 @@ def test_validate_quick_writes_report():
         assert (tmp / "doc" / f"validation_circle2d_{png}.png").exists(), png
 
 
-def test_scripts_help_and_bad_run_directory():
+def test_scripts_help_and_bad_run_directory(scratch, tiny_run):
     empty = scratch("postproc_empty")
     afile = empty / "file.txt"
     afile.write_text("x")
@@ -323,7 +337,7 @@ def test_scripts_help_and_bad_run_directory():
         assert p.returncode == 2 and msg in p.stderr and p.stdout == "", (name, p.stdout, p.stderr)
         assert "Traceback" not in p.stderr
     # a run of the wrong case for a figure
-    d, _ = tiny_run()
+    d, _ = tiny_run
     p = script("plots", "ellipsoid", d, check=False)
     assert p.returncode == 2 and "circle2d" in p.stderr, p.stderr
 

@@ -12,8 +12,9 @@ import subprocess
 
 import h5py
 import numpy as np
+import pytest
 
-from common import ROOT, SPH, ENV, run_sph, scratch, read_timeseries
+from common import ROOT, SPH, ENV, run_sph, read_timeseries
 
 ROTATION = "input/square_rotation.nml"
 VORTICAL = "input/square_vortical.nml"
@@ -36,27 +37,24 @@ def dominant_frequency(t, y, f_min):
     return f[k] + 0.5 * (y1 - y3) / (y1 - 2 * y2 + y3) * (f[1] - f[0])
 
 
-_ROT = {}
-
-
-def rotation_run():
+@pytest.fixture(scope="module")
+def rotation_run(scratch):
     """The rotating square with 1,600 particles to t omega = 1 (about 5
     acoustic periods), run once for the tests below, with the paper's
     standard scheme: the conservative operators and the tensile control
     (input/square_rotation.nml uses particle shifting instead, which moves
     positions and so does not keep the angular momentum exactly; it is
-    tested in test_shifting_prevents_fragmentation_and_pressure_noise)."""
-    if "dir" not in _ROT:
-        d = scratch("square_rotation") / "run"
-        p = run_sph([ROTATION, "particles.n=1600", "run.t_end=1", "output.dt=0.5",
-                     f"output.dir={d}", "numerics.tensile=.true.",
-                     "numerics.shifting=.false."])
-        assert p.returncode == 0, p.out
-        _ROT.update(dir=d, out=p.out)
-    return _ROT["dir"], _ROT["out"]
+    tested in test_shifting_prevents_fragmentation_and_pressure_noise).
+    (run directory, output)"""
+    d = scratch("square_rotation") / "run"
+    p = run_sph([ROTATION, "particles.n=1600", "run.t_end=1", "output.dt=0.5",
+                 f"output.dir={d}", "numerics.tensile=.true.",
+                 "numerics.shifting=.false."])
+    assert p.returncode == 0, p.out
+    return d, p.out
 
 
-def test_rotation_pressure_frequency():
+def test_rotation_pressure_frequency(rotation_run):
     # DESIGN.md X6: the raw pressure at A oscillates at the lowest acoustic
     # mode of the square, f0 = c0/(sqrt(2) L) = 4.95 omega at c0 = 7 omega L.
     # Measured over 0 <= t omega <= 1 (tensile_eps = 0.4): -1.6 % (1,600
@@ -65,7 +63,7 @@ def test_rotation_pressure_frequency():
     # 1 <= t omega <= 2 at 10,000).  Threshold 3 %.  (With shifting and no
     # tensile control: +2.6 % at 2,500, +3.2 % at 10,000, +3.4 % at
     # 40,000: the control's repulsion lowers the frequency.)
-    d, out = rotation_run()
+    d, out = rotation_run
     ts = read_timeseries(d / "timeseries.csv")
     t = np.array(ts["time"])
     p = np.array(ts["p_probe_1"])       # the probe at A, the generic column
@@ -86,13 +84,13 @@ def test_rotation_pressure_frequency():
     assert abs(p[0] / -0.147343 - 1) < 0.01, p[0]
 
 
-def test_rotation_symmetry_and_invariants():
+def test_rotation_symmetry_and_invariants(rotation_run):
     # The flow is symmetric under rotation by 90 degrees and the lattice
     # too; the scheme keeps the symmetry to round-off: RMS symmetry error
     # measured 4e-14 dx at t omega = 1 (2e-7 dx at t omega = 4 with 10,000
     # particles).  Threshold 1e-9 dx: an asymmetric term (a neighbour
     # missed, an order-dependent sum that is not round-off) gives O(1e-3).
-    d, _ = rotation_run()
+    d, _ = rotation_run
     ts = read_timeseries(d / "timeseries.csv")
     sym = np.array(ts["symmetry_error"])
     print(f"    symmetry error: RMS {sym.max():.2e} dx, largest {max(ts['symmetry_error_max']):.2e} dx")
@@ -117,8 +115,6 @@ def test_rotation_symmetry_and_invariants():
         assert abs(f.attrs["p_centre_initial"] - (-0.147343)) < 1e-6
 
 
-_FRAG = {}
-
 STANDARD = ["numerics.pressure_gradient=standard", "numerics.divergence=standard",
             "numerics.shifting=.false."]
 FRAGMENTATION_RUNS = {
@@ -132,25 +128,27 @@ FRAGMENTATION_RUNS = {
 }
 
 
-def fragmentation_runs():
+@pytest.fixture(scope="module")
+def fragmentation_runs(scratch):
     """The rotating square with 2,500 particles to t omega = 2.5 with the
     tensile control (E7) on and off, with particle shifting (E8) instead of
     the tensile control, and with the higher-order operators and shifting;
-    the four runs go side by side (two cores), once for the tests below."""
-    if not _FRAG:
-        procs = {}
-        for name, args in FRAGMENTATION_RUNS.items():
-            d = scratch(f"frag_{name}") / "run"
-            cmd = ["mpirun", "-np", "1", str(SPH), ROTATION, "particles.n=2500",
-                   "run.t_end=2.5", "output.dt=2.5", "output.snapshots=.false.",
-                   f"output.dir={d}"] + args
-            procs[name] = (d, subprocess.Popen(cmd, cwd=ROOT, env=ENV, stdout=subprocess.PIPE,
-                                               stderr=subprocess.STDOUT, text=True))
-        for name, (d, proc) in procs.items():
-            out, _ = proc.communicate(timeout=600)
-            assert proc.returncode == 0, out
-            _FRAG[name] = read_timeseries(d / "timeseries.csv")
-    return _FRAG
+    the four runs go side by side (two cores), once for the tests below.
+    Their time series by name."""
+    procs = {}
+    for name, args in FRAGMENTATION_RUNS.items():
+        d = scratch(f"frag_{name}") / "run"
+        cmd = ["mpirun", "-np", "1", str(SPH), ROTATION, "particles.n=2500",
+               "run.t_end=2.5", "output.dt=2.5", "output.snapshots=.false.",
+               f"output.dir={d}"] + args
+        procs[name] = (d, subprocess.Popen(cmd, cwd=ROOT, env=ENV, stdout=subprocess.PIPE,
+                                           stderr=subprocess.STDOUT, text=True))
+    runs = {}
+    for name, (d, proc) in procs.items():
+        out, _ = proc.communicate(timeout=600)
+        assert proc.returncode == 0, out
+        runs[name] = read_timeseries(d / "timeseries.csv")
+    return runs
 
 
 def oscillation(ts):
@@ -162,7 +160,7 @@ def oscillation(ts):
     return math.sqrt(np.mean((p[m] - np.polyval(np.polyfit(t[m], p[m], 4), t[m]))**2))
 
 
-def test_tensile_control_prevents_fragmentation():
+def test_tensile_control_prevents_fragmentation(fragmentation_runs):
     # The rotating square's pressure is negative everywhere: without the
     # tensile control (E7) particles pair up and open voids, then break
     # away.  Fragmentation indicator: holes of the fluid region (the union
@@ -174,7 +172,7 @@ def test_tensile_control_prevents_fragmentation():
     #     (also at 1,600 and 10,000 particles; at 40,000 holes open at the
     #     roots of the arms from t omega = 2.8: doc/numerics.md);
     #   eps = 0.2 (Monaghan's value): 4 holes at t omega = 3.
-    runs = fragmentation_runs()
+    runs = fragmentation_runs
     on, off = runs["on"], runs["off"]
     print(f"    holes: control on max {max(on['fluid_holes']):.0f}, "
           f"off max {max(off['fluid_holes']):.0f}")
@@ -184,7 +182,7 @@ def test_tensile_control_prevents_fragmentation():
     assert off["fluid_holes"][0] == 0 and off["fluid_components"][0] == 1
 
 
-def test_shifting_prevents_fragmentation_and_pressure_noise():
+def test_shifting_prevents_fragmentation_and_pressure_noise(fragmentation_runs):
     # Particle shifting (E8) instead of the tensile control keeps the
     # particles regular: measured with 2,500 particles to t omega = 2.5, no
     # hole and one component, with the standard scheme and with the
@@ -197,7 +195,7 @@ def test_shifting_prevents_fragmentation_and_pressure_noise():
     # 0.3 times the control's.  The acoustic frequency stays that of the
     # square's lowest mode: +2.6 % from c0/(sqrt(2) L) with shifting (the
     # core shrinks during the window), threshold 5 %.
-    runs = fragmentation_runs()
+    runs = fragmentation_runs
     on, shift, ho = runs["on"], runs["shift"], runs["higher_order"]
     print(f"    p_A oscillation: tensile control {oscillation(on):.5f}, shifting "
           f"{oscillation(shift):.5f}, higher order + shifting {oscillation(ho):.5f}")
@@ -217,21 +215,18 @@ def test_shifting_prevents_fragmentation_and_pressure_noise():
     assert 1e-4 < abs(lz[-1] / lz[0] - 1) < 0.03, lz[-1] / lz[0]
 
 
-_VORT = {}
+@pytest.fixture(scope="module")
+def vortical_run(scratch):
+    """The vortical patch with 1,600 particles to t V0/L = 1.5, run once
+    for the tests below.  (run directory, output)"""
+    d = scratch("square_vortical") / "run"
+    p = run_sph([VORTICAL, "particles.n=1600", "output.dt=0.5", f"output.dir={d}"])
+    assert p.returncode == 0, p.out
+    return d, p.out
 
 
-def vortical_run():
-    """The vortical patch with 1,600 particles to t V0/L = 1.5."""
-    if "dir" not in _VORT:
-        d = scratch("square_vortical") / "run"
-        p = run_sph([VORTICAL, "particles.n=1600", "output.dt=0.5", f"output.dir={d}"])
-        assert p.returncode == 0, p.out
-        _VORT.update(dir=d, out=p.out)
-    return _VORT["dir"], _VORT["out"]
-
-
-def test_vortical_initial_state():
-    d, _ = vortical_run()
+def test_vortical_initial_state(vortical_run):
+    d, _ = vortical_run
     with h5py.File(d / "snap_00000.h5", "r") as f:
         assert f.attrs["time"] == 0
         order = np.argsort(f["id"][:])
@@ -280,12 +275,12 @@ def test_vortical_initial_state():
     assert np.sqrt(np.mean((w - exact)**2)) / 6.86 < 0.015
 
 
-def test_vortical_reconnection_detected():
+def test_vortical_reconnection_detected(vortical_run):
     # The free surface folds back and reconnects, enclosing cavities (paper:
     # t V0/L about 1.2).  Measured first cavity (an enclosed void of at
     # least 1 % of L^2): t V0/L = 1.15 (1,600 particles), 1.18 (2,500),
     # 1.21 (10,000), 1.22 (40,000).
-    d, out = vortical_run()
+    d, out = vortical_run
     m = re.search(r"first cavity \(reconnection of the free surface\) at t V0/L = +([0-9.]+)", out)
     assert m, out
     t_rec = float(m.group(1))
