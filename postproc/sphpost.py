@@ -154,11 +154,13 @@ class CaseInfo:
                   never go below their initial value; a deformed square could
                   fall to at most 4 % below its f0 (the disc of equal area).
     notes         warnings gathered while reading (e.g. defaults assumed)
+    rates         the stretching cases' initial strain rates alpha_k(0) (A0 included)
     """
 
     def __init__(self, name, dim, rho0, c0, length, rate, time_label, p_unit,
-                 p_unit_label, f_acoustic, notes=()):
+                 p_unit_label, f_acoustic, notes=(), rates=None):
         self.name, self.dim, self.rho0, self.c0 = name, dim, rho0, c0
+        self.rates = rates
         self.length, self.rate = length, rate
         self.time_label, self.p_unit, self.p_unit_label = time_label, p_unit, p_unit_label
         self.f_acoustic = f_acoustic
@@ -197,13 +199,16 @@ def case_info(nml, case=None, dim=None):
         r = float(g.get("radius", 1.0))
         a0 = float(g.get("a0", 1.0))
         return CaseInfo(name, 2, rho0, c0, r, a0, "t A0", rho0 * a0**2 * r**2,
-                        "rho A0^2 R^2", J0_ZERO * c0 / (2 * math.pi * r), notes)
+                        "rho A0^2 R^2", J0_ZERO * c0 / (2 * math.pi * r), notes,
+                        rates=(-a0, a0))
     if name == "ellipsoid3d":
         g = nml.get("ellipsoid3d", {})
         r = float(g.get("radius", 1.0))
         a0 = float(g.get("a0", 1.0))
+        rates = g.get("rates", [-1.0, -1.0, 2.0])
+        rates = tuple(a0 * float(x) for x in (rates if isinstance(rates, (list, tuple)) else [rates]))
         return CaseInfo(name, 3, rho0, c0, r, a0, "t A0", rho0 * a0**2 * r**2,
-                        "rho A0^2 R^2", c0 / (2 * r), notes)
+                        "rho A0^2 R^2", c0 / (2 * r), notes, rates=rates)
     if name == "square_rotation":
         # Variable names of issue 5's input/square_rotation.nml; the first
         # one found is used.
@@ -613,8 +618,41 @@ def stretching_errors(run, f_cut, transition):
         # P(t) over t rate < DIP_WINDOW (0 if it never falls below)
         early = t * c.rate < DIP_WINDOW
         out["dip"] = float(max(0.0, -np.min(ser["p_raw"][early]))) if early.any() else 0.0
+    out["slow"] = slow_centre_pressure(c, t)
+    mean["slow"] = time_mean(t, np.abs(out["slow"]))
     out.update(mean=mean, sample_mean=smean, final=final, names=names)
     return out
+
+
+def centre_pressure_accel(a, al, rho=1.0):
+    """P''(t) of X1 from the semi-axes a and rates al (arrays (n, dim)):
+    with P = rho N/D, N = Sum al^2, D = 2 Sum 1/a^2, a' = al a,
+    al' = 2P/(rho a^2) - al^2 and al'' = 2P'/(rho a^2) - 4 P al/(rho a^2) - 2 al al',
+    P'' = rho ((N'' D - N D'')/D^2 - 2 D' (N' D - N D')/D^3)."""
+    a, al = np.atleast_2d(a), np.atleast_2d(al)
+    n, d = np.sum(al**2, 1), 2 * np.sum(1 / a**2, 1)
+    p = rho * n / d
+    al1 = 2 * p[:, None] / (rho * a**2) - al**2
+    n1, d1 = 2 * np.sum(al * al1, 1), -4 * np.sum(al / a**2, 1)
+    p1 = rho * (n1 * d - n * d1) / d**2
+    al2 = (2 * p1[:, None] - 4 * p[:, None] * al) / (rho * a**2) - 2 * al * al1
+    n2 = 2 * np.sum(al1**2 + al * al2, 1)
+    d2 = -4 * np.sum((al1 - 2 * al**2) / a**2, 1)
+    return rho * ((n2 * d - n * d2) / d**2 - 2 * d1 * (n1 * d - n * d1) / d**3)
+
+
+def slow_centre_pressure(case, t):
+    """(I2, doc/numerics.md) The weakly compressible model's own departure
+    of the centre pressure from the incompressible P(t), over P(0):
+    delta p(0, t) = -P''(t) R^2 (dim + 4) / (4 dim (dim + 2) c0^2).  It
+    falls as 1/c0^2 and is slow, so the low-pass filter keeps it: a floor
+    of the filtered error at any resolution."""
+    d = case.dim
+    t = np.atleast_1d(np.asarray(t, dtype=float))
+    a, al, p = exact_ellipse(t, rates=case.rates, radius=case.length, rho=case.rho0)
+    p0 = case.rho0 * np.sum(np.square(case.rates)) * case.length**2 / (2 * d)
+    p2 = centre_pressure_accel(a, al, case.rho0)
+    return -p2 * case.length**2 * (d + 4) / (4 * d * (d + 2) * case.c0**2) / p0
 
 
 def row_indices(run, times=None, count=None):

@@ -74,6 +74,28 @@ def test_exact_solution_matches_design_table():
     assert abs(p[0] - 0.05874) < 1e-5, p
 
 
+def test_compressibility_floor_closed_form_at_t0():
+    """I2 at t = 0 against P''(0) derived by hand from X1 (doc/numerics.md):
+    2D rates (-1, 1): P'' = -8 P(0) A0^2, coefficient 3/16 -> 1.5 % at c0 = 10;
+    3D rates (-1, -1, 2): P'' = -10 P(0) A0^2, coefficient 7/60 -> 1.1667 %.
+    sphpost computes P'' in closed form from the semi-axes and rates."""
+    for name, dim, rates, expected in (("circle2d", 2, (-1.0, 1.0), 8 * 3 / 16 / 100),
+                                       ("ellipsoid3d", 3, (-1.0, -1.0, 2.0), 10 * 7 / 60 / 100)):
+        c = sp.case_info({"run": {"case": name}, "physics": {"c0": 10.0}})
+        t = np.linspace(0.0, 0.2, 201)
+        _, _, p = sp.exact_ellipse(t, rates=rates)
+        slow = sp.slow_centre_pressure(c, t)
+        assert abs(slow[0] - expected) < 1e-12, (name, slow[0], expected)
+        # the closed-form P'' against second differences of P(t) inside the
+        # interval (step 1e-3: they differ by 2e-5 relative, 3e-7 absolute)
+        p2 = np.gradient(np.gradient(p, t), t)
+        coef = (dim + 4) / (4 * dim * (dim + 2) * 10.0**2) / p[0]
+        assert np.allclose(slow[5:-5], -coef * p2[5:-5], rtol=1e-4, atol=1e-6)
+        # 1/c0^2: twice c0, a quarter of the floor
+        c2 = sp.case_info({"run": {"case": name}, "physics": {"c0": 20.0}})
+        assert abs(sp.slow_centre_pressure(c2, t)[0] - expected / 4) < 1e-12
+
+
 def test_filter_transfer_function_on_the_dct_grid():
     # A cosine of the DCT grid, cos(pi k t/T) (frequency k/(2T)), is one
     # coefficient of the transform: the filter multiplies it by H(k/(2T))
