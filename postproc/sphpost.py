@@ -1,7 +1,7 @@
 """sphpost: the shared library of the post-processing scripts in postproc/.
 
 Reads an sph run directory (doc/output.md), knows each case's scales and
-lowest acoustic frequency (DESIGN.md X6), low-pass filters probe signals with
+lowest acoustic frequency (doc/theory.md X6), low-pass filters probe signals with
 FFTW (a type-I discrete cosine transform, FFTW_REDFT00, through pyFFTW) and
 computes the paper's errors against the exact solution.  The scripts
 (errors, filter, convergence, plots, validate) are thin command-line layers
@@ -127,7 +127,7 @@ def read_namelist(path):
 
 
 # ---------------------------------------------------------------------------
-# Cases: scales and the lowest acoustic frequency (DESIGN.md X6)
+# Cases: scales and the lowest acoustic frequency (doc/theory.md X6)
 # ---------------------------------------------------------------------------
 
 # First zero of the Bessel function J0: the lowest Dirichlet (p = 0 on the
@@ -147,7 +147,7 @@ class CaseInfo:
     p_unit        the pressure unit of the paper's plots (rho A0^2 R^2, rho omega^2 L^2, rho V0^2)
     p_unit_label  its name
     f_acoustic    the lowest acoustic frequency of the patch at t = 0, in
-                  cycles per unit time (DESIGN.md X6; sphere: c0/(2R), the
+                  cycles per unit time (doc/theory.md X6; sphere: c0/(2R), the
                   first zero of sin(kr)/r).  By the Faber-Krahn inequality the
                   disc (ball) has the lowest Dirichlet eigenvalue among all
                   shapes of equal area (volume), so the stretching patches
@@ -368,7 +368,7 @@ def solver_summary(text):
 
 
 # ---------------------------------------------------------------------------
-# Exact solution of the stretching patch (DESIGN.md X1), for tests and plots
+# Exact solution of the stretching patch (doc/theory.md X1), for tests and plots
 # ---------------------------------------------------------------------------
 
 def exact_ellipse(t, rates=(-1.0, 1.0), radius=1.0, rho=1.0):
@@ -520,7 +520,7 @@ def add_filter_options(parser):
     g = parser.add_argument_group("pressure filter (doc/postproc.md)")
     g.add_argument("--cutoff-acoustic", type=float, metavar="FRAC",
                    help="cut-off as a fraction of the lowest acoustic frequency of the "
-                        f"patch (DESIGN.md X6); default {DEFAULT_ACOUSTIC_FRACTION}")
+                        f"patch (doc/theory.md X6); default {DEFAULT_ACOUSTIC_FRACTION}")
     g.add_argument("--cutoff-flow", type=float, metavar="F",
                    help="cut-off in units of the flow rate instead (A0, omega or V0/L: "
                         "cycles per 1/A0 ...)")

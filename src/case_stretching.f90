@@ -2,7 +2,7 @@
 !> `circle2d`) and sphere (3D, `ellipsoid3d`), with the exact solution X1
 !> recorded beside the SPH values.
 !>
-!> Initial state (paper eq. 1, DESIGN.md X1): u_k = alpha_k x_k,
+!> Initial state (paper eq. 1, doc/theory.md X1): u_k = alpha_k x_k,
 !> p = P(0) (1 - |x|^2/R^2), rho from the inverse equation of state,
 !> m = rho times the particle's area (volume).
 module case_stretching

@@ -104,7 +104,7 @@ module config
     logical :: tensile = .false.                         !< (E7) tensile instability control
     real(wp) :: tensile_eps = 0.4_wp                     !< measured best with wendland_c2, h = 2 dx
     integer :: tensile_n = 4
-    !> (E4) or the corrected form of DESIGN.md section 5
+    !> (E4) or the higher-order form (H1, doc/theory.md)
     character(len=NAME_LEN) :: pressure_gradient = 'standard'
     character(len=NAME_LEN) :: renormalise = 'stage'     !< first pass every stage, or step
     character(len=NAME_LEN) :: divergence = 'standard'   !< (E1), or renormalised (E3)
@@ -1291,7 +1291,7 @@ contains
       end if
     end do
 
-    ! The rates of a divergence-free linear field sum to zero (DESIGN.md X1).
+    ! The rates of a divergence-free linear field sum to zero (doc/theory.md X1).
     associate (rates => c%ellipsoid3d%rates)
       call origin_of(origins, path, 'ellipsoid3d.rates', origin, line)
       head = '&ellipsoid3d rates = ' // real_list(rates)

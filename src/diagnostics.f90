@@ -1,5 +1,5 @@
-!> Global diagnostics of the particle state (DESIGN.md section 6), reduced
-!> over all ranks.
+!> Global diagnostics of the particle state (doc/theory.md D1, D2, D4),
+!> reduced over all ranks.
 module diagnostics
   use kinds, only: wp
   use particles, only: particles_t
@@ -13,7 +13,7 @@ module diagnostics
 
 contains
 
-  !> 1/2 Sum m |u|^2
+  !> (D1) 1/2 Sum m |u|^2
   function kinetic_energy(env, parts) result(ke)
     type(parallel_env_t), intent(in) :: env
     type(particles_t), intent(in) :: parts
@@ -41,7 +41,7 @@ contains
     call par_sum_array(env, mom)
   end function total_momentum
 
-  !> Shepard-normalised kernel interpolation of the pressure at a point:
+  !> (D4) Shepard-normalised kernel interpolation of the pressure at a point:
   !> p(x) = Sum_j p_j W(x - x_j) V_j / Sum_j W(x - x_j) V_j.  NaN when no
   !> particle lies within the kernel support of the point.
   function probe_pressure(env, parts, kernel, point) result(p)
@@ -67,7 +67,7 @@ contains
     end if
   end function probe_pressure
 
-  !> Semi-axes of the ellipse (ellipsoid) with the particles' second moments
+  !> (D2) Semi-axes of the ellipse (ellipsoid) with the particles' second moments
   !> about their centre of mass: a_k = 2 sqrt(<x_k^2>) in 2D, sqrt(5 <x_k^2>)
   !> in 3D (uniform ellipse / ellipsoid).  x is either the particle positions
   !> or any other per-particle points (e.g. the exact Lagrangian map).

@@ -1,5 +1,5 @@
 !> Diagnostics of the free-surface patches beyond the global sums of
-!> `diagnostics` (DESIGN.md section 6): angular momentum, the positions of
+!> `diagnostics` (doc/theory.md D1, D3): angular momentum, the positions of
 !> all particles by global id (for symmetry checks), the topology of the
 !> fluid region (components and holes), the SPH vorticity and the
 !> free-surface indicator.
@@ -43,7 +43,7 @@ module flow_diagnostics
 
 contains
 
-  !> z-component of Sum m x x u (about the origin): conserved by the
+  !> (D1) z-component of Sum m x x u (about the origin): conserved by the
   !> pairwise central forces of the SPH scheme.
   function angular_momentum(env, parts) result(lz)
     type(parallel_env_t), intent(in) :: env
@@ -75,7 +75,7 @@ contains
     out = reshape(flat, [dim, n_global])
   end subroutine gather_by_id
 
-  !> Symmetry error of a 2D particle set under the linear map S (a rotation
+  !> (D3) Symmetry error of a 2D particle set under the linear map S (a rotation
   !> or reflection that maps the initial lattice onto itself):
   !> particle k's partner partner(k) started at S x_k(0), so a symmetric flow
   !> keeps x_partner(k)(t) = S x_k(t).  Returns the RMS and the largest

@@ -1,4 +1,4 @@
-!> The weakly-compressible SPH right-hand side (DESIGN.md section 2).
+!> The weakly-compressible SPH right-hand side (doc/theory.md E1-E9, H1).
 !>
 !> Notation: x_ij = x_i - x_j, r = |x_ij|, g = grad_i W_ij = F(r) x_ij with
 !> F = W'/r < 0 (kernels module), V_j = m_j/rho_j, u_ji = u_j - u_i.  Pairs
@@ -22,7 +22,7 @@ module fluid_rhs
 
   integer, parameter :: VISC_NONE = 0, VISC_DELTA = 1, VISC_MONAGHAN = 2
   integer, parameter :: DIFF_NONE = 0, DIFF_MOLTENI = 1, DIFF_ANTUONO = 2
-  !> (E4) -(1/rho_i) Sum_j (p_i + p_j) g V_j, or (section 5) the corrected
+  !> (E4) -(1/rho_i) Sum_j (p_i + p_j) g V_j, or (H1) the corrected
   !> -(1/rho_i) L_i Sum_j (p_j - p_i) g V_j with p = 0 on the free surface
   integer, parameter :: PGRAD_STANDARD = 1, PGRAD_HIGHER_ORDER = 2
   !> (E1) the velocity divergence Sum_j u_ji . g V_j, or its renormalised
@@ -34,10 +34,10 @@ module fluid_rhs
   !> below LAMBDA_SURFACE a particle is on the free surface, below
   !> LAMBDA_NEAR near it.
   real(wp), parameter :: LAMBDA_SURFACE = 0.55_wp, LAMBDA_NEAR = 0.9_wp
-  !> (section 5) the higher-order gradient's weight rises linearly from 0 at
+  !> (H1) the higher-order gradient's weight rises linearly from 0 at
   !> LAMBDA_BLEND to 1 at LAMBDA_NEAR (doc/numerics.md, "the blend")
   real(wp), parameter :: LAMBDA_BLEND = 0.7_wp
-  !> (section 5) the corrected form's largest weight: a tenth of the
+  !> (H1) the corrected form's largest weight: a tenth of the
   !> conservative (E4) stays everywhere, whose term 2 p_i Sum_j g V_j pushes
   !> particles apart where they crowd; the corrected form alone has no such
   !> restoring force, and a stretched Lagrangian arrangement then grows
@@ -63,12 +63,12 @@ module fluid_rhs
     integer :: tensile_n = 4
     real(wp) :: tensile_dx = 0
     !> pressure gradient of the momentum equation: PGRAD_STANDARD (E4) or
-    !> PGRAD_HIGHER_ORDER (section 5, needs rhs_renormalisation first)
+    !> PGRAD_HIGHER_ORDER (H1, needs rhs_renormalisation first)
     integer :: pressure_gradient = PGRAD_STANDARD
     !> velocity divergence of the continuity equation: DIV_STANDARD (E1) or
     !> DIV_RENORMALISED (needs rhs_renormalisation first)
     integer :: divergence = DIV_STANDARD
-    !> the corrected gradient's weight inside the fluid (section 5, the
+    !> the corrected gradient's weight inside the fluid (H1, the
     !> blend); 1 gives the corrected form alone (the unit tests of its
     !> exactness use that)
     real(wp) :: ho_weight = HO_WEIGHT_MAX
@@ -273,7 +273,7 @@ contains
   !>  (E7) tens_i = -Sum_j m_j (R_i + R_j) (W_ij/W(dx))^n g, R_i = eps |p_i|/rho_i^2
   !>       where p_i < 0, else 0 (Monaghan 2000): a repulsion between
   !>       particles under tension, antisymmetric like the pressure term.
-  !> Section 5, prm%pressure_gradient = PGRAD_HIGHER_ORDER: inside the fluid
+  !> (H1) prm%pressure_gradient = PGRAD_HIGHER_ORDER: inside the fluid
   !> (lambda_i >= LAMBDA_NEAR, E9) the pressure part of (E4) becomes the
   !> consistent, corrected form
   !>       -(1/rho_i) L_i Sum_j (p_j - p_i) g V_j,
@@ -349,7 +349,7 @@ contains
     renorm = corrected .or. renorm_div
     if (renorm .and. .not. present(lmat)) &
       error stop 'rhs_evaluate: the renormalised operators need lmat (rhs_renormalisation)'
-    ! (section 5): the pressure with p = 0 on the free surface (pf), and the
+    ! (H1): the pressure with p = 0 on the free surface (pf), and the
     ! weight wc of the consistent form: prm%ho_weight inside the fluid
     ! (lambda >= LAMBDA_NEAR), 0 (the conservative E4) on the surface and
     ! near it (lambda <= LAMBDA_BLEND), linear in lambda between
@@ -430,7 +430,7 @@ contains
         du_i = du_i + (a * vj * iri) * g
         du(:, j) = du(:, j) - (a * vi * irj) * g
         if (corrected) then
-          ! (section 5): -(1/rho_i) (p_j - p_i) L_i g V_j inside the fluid,
+          ! (H1): -(1/rho_i) (p_j - p_i) L_i g V_j inside the fluid,
           ! -(1/rho_i) (p_i + p_j) g V_j (E4) near the surface; for j,
           ! -(1/rho_j) (p_i - p_j) L_j (-g) V_i or +(1/rho_j) (p_i + p_j) g V_i
           dp = pf(j) - pf(i)

@@ -3,8 +3,8 @@
 !> 'rings': concentric rings (shells in 3D) of spacing dx at radii
 !> (k - 1/2) dx, k = 1..K with K dx = R, each evenly filled; every particle
 !> gets the area (volume) of its ring divided by the ring's count, so the
-!> volumes add up to the body's exactly.  DESIGN.md section 9: this survives
-!> strong stretching where a clipped lattice fails.
+!> volumes add up to the body's exactly.  It survives strong stretching
+!> where a clipped lattice fails (doc/theory.md, "Measurements the defaults rest on").
 !> 'lattice': a square (cubic) lattice of spacing dx clipped to the body,
 !> each particle with volume dx^dim.
 !> 'packed': the first guess of the packing (doc/packing.md): the clipped

@@ -1,5 +1,5 @@
 !> The time stepper: particle state, neighbour list management, stage
-!> evaluation and the integrators (DESIGN.md section 3).
+!> evaluation and the integrators (doc/theory.md T1-T3).
 module solver
   use kinds, only: wp, i8
   use particles, only: particles_t, particles_permute

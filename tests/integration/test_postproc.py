@@ -63,9 +63,9 @@ def tiny_run_ellipsoid3d(scratch):
 # The filter
 # ---------------------------------------------------------------------------
 
-def test_exact_solution_matches_design_table():
-    # DESIGN.md X1 (2D, alpha = (-A0, A0)) and X2 (3D, rates (-1, -1, 2)):
-    # the tables give 6 digits.
+def test_exact_solution_matches_reference_values():
+    # doc/theory.md X1 (2D, alpha = (-A0, A0)) and X2 (3D, rates (-1, -1, 2)):
+    # the tables give 6 digits (X2: 5).
     a, _, p = sp.exact_ellipse([0.5, 1.0, 2.0])
     assert np.allclose(a[:, 0], [0.627053, 0.439461, 0.271814], atol=1e-6), a[:, 0]
     assert np.allclose(p, [0.231943, 0.069327, 0.010799], atol=1e-6), p
@@ -115,9 +115,10 @@ def test_filter_transfer_function_on_the_dct_grid():
 
 
 def test_filter_recovers_smooth_curve_from_acoustic_noise():
-    # Synthetic probe signal like circle2d's at c0 = 10 A0 R (DESIGN.md 9):
-    # the exact centre pressure P(t) (P0 = 0.5) + an acoustic sine at the
-    # disc's lowest acoustic frequency f_a = 2.405 c0/(2 pi R) = 3.83 A0,
+    # Synthetic probe signal like circle2d's at c0 = 10 A0 R (doc/theory.md,
+    # Measurements the defaults rest on): the exact centre pressure P(t)
+    # (P0 = 0.5) + an acoustic sine at the disc's lowest acoustic frequency
+    # f_a = 2.405 c0/(2 pi R) = 3.83 A0 (X6),
     # amplitude A = 3 % of P0, + white noise sigma = 0.4 % of P0, sampled at
     # non-uniform steps (0.004 (1 +- 0.5) / A0, like a run's varying dt).
     # Default filter: f_cut = f_a/2, raised-cosine transition +-0.3.

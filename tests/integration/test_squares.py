@@ -55,7 +55,7 @@ def rotation_run(scratch):
 
 
 def test_rotation_pressure_frequency(rotation_run):
-    # DESIGN.md X6: the raw pressure at A oscillates at the lowest acoustic
+    # doc/theory.md X6: the raw pressure at A oscillates at the lowest acoustic
     # mode of the square, f0 = c0/(sqrt(2) L) = 4.95 omega at c0 = 7 omega L.
     # Measured over 0 <= t omega <= 1 (tensile_eps = 0.4): -1.6 % (1,600
     # particles), -1.3 % (2,500), -0.85 % (10,000), -0.72 % (40,000); later
