@@ -3,6 +3,7 @@
 installed).  Run by `make test` as /usr/bin/python3 tests/test_pf2f90.py;
 ends with the line "N passed, N failed" that tests/run_tests.sh adds up."""
 
+import glob
 import os
 import re
 import subprocess
@@ -251,6 +252,23 @@ class CommandLine(unittest.TestCase):
         self.assertEqual(p.returncode, 1)
         self.assertRegex(p.stderr, r'test_x\.pf:13: construct not supported: @assertAny')
         self.assertEqual(made, ['test_x.pf'])
+
+
+class TheSuite(unittest.TestCase):
+    """Every tests/unit/*.pf translates, with each test registered."""
+
+    def test_unit_suites(self):
+        files = sorted(glob.glob(os.path.join(HERE, 'unit', 'test_*.pf')))
+        self.assertTrue(files)
+        for path in files:
+            with open(path) as f:
+                text = f.read()
+            out = pf2f90.translate(path, text)
+            tests = len(re.findall(r'^\s*@test\s*$', text, re.M))
+            instances = sum(len(m.split(',')) for m in
+                            re.findall(r'^\s*@mpitest\(npes=\[([0-9, ]+)\]\)', text, re.M))
+            self.assertEqual(out.count('call run_test('), tests, path)
+            self.assertEqual(out.count('call run_mpi_test('), instances, path)
 
 
 class Summary(unittest.TextTestResult):
