@@ -49,12 +49,13 @@ $(BUILD):
 	mkdir -p $@
 
 # Module dependencies: "use foo" in any source makes its object depend on
-# $(BUILD)/foo.o when foo is one of ours (for a .pf file: its translation's).
+# $(BUILD)/foo.o when foo is one of ours (for a .pf file: the objects of
+# both unit-test builds below).
 DEP_SRC := $(SRC) tests/testing.f90 tests/bitwise.f90 $(PF_SRC)
 $(BUILD)/deps.mk: $(DEP_SRC) | $(BUILD)
 	@for f in $(DEP_SRC); do \
 	  b=$$(basename $$f); b=$${b%.*}; \
-	  case $$f in *.pf) o=$(PF2F90)/$$b.o;; *) o=$(BUILD)/$$b.o;; esac; \
+	  case $$f in *.pf) o="$(PF2F90)/$$b.o $(PFB)/$$b.o";; *) o=$(BUILD)/$$b.o;; esac; \
 	  for m in $$(sed -nE 's/^[[:space:]]*use[[:space:]]*(,[[:space:]]*non_intrinsic[[:space:]]*::)?[[:space:]]*([A-Za-z0-9_]+).*/\2/Ip' $$f | tr A-Z a-z | sort -u); do \
 	    for d in src tests; do \
 	      if [ -f $$d/$$m.f90 ] && [ $$m != $$b ]; then echo "$$o: $(BUILD)/$$m.o"; fi; \
@@ -64,11 +65,53 @@ $(BUILD)/deps.mk: $(DEP_SRC) | $(BUILD)
 -include $(BUILD)/deps.mk
 
 # ---------------------------------------------------------------- unit tests
-# tests/unit/test_<unit>.pf are written in pFUnit's test language;
-# tests/pf2f90.py translates them for the harness tests/testing.f90 and
-# tests/run_tests.sh runs the result.
+# tests/unit/test_<unit>.pf are written in pFUnit's test language.  With
+# pFUnit 4 installed (PFUNIT_DIR, on the command line or in the environment:
+# its PFUNIT-4.x directory, the prefix holding it or its cmake/ directory),
+# pFUnit's preprocessor and driver build them; without it, tests/pf2f90.py
+# translates them for the harness tests/testing.f90.  Either way
+# tests/run_tests.sh runs the result (README, "Unit tests").
 PF2F90 := $(BUILD)/pf2f90
+PFB    := $(BUILD)/pfunit
 
+ifneq ($(strip $(PFUNIT_DIR)),)
+PFUNIT_MK := $(firstword $(wildcard $(PFUNIT_DIR)/include/PFUNIT.mk \
+                                    $(PFUNIT_DIR)/PFUNIT-*/include/PFUNIT.mk \
+                                    $(PFUNIT_DIR)/../include/PFUNIT.mk))
+ifeq ($(PFUNIT_MK),)
+$(error PFUNIT_DIR=$(PFUNIT_DIR) has no include/PFUNIT.mk: give pFUnit's PFUNIT-4.x directory)
+endif
+# before PFUNIT.mk: without it PFUNIT_LIBRARIES lacks -lpfunit (MpiTestMethod)
+USEMPI := YES
+include $(PFUNIT_MK)
+
+# The steps of PFUNIT.mk's make_pfunit_test, written out so that funitproc
+# runs under $(PYTHON) (its "#!/usr/bin/env python" finds no python on
+# Debian) and everything it makes stays in $(PFB).
+PF_FFLAGS := $(OPTFLAGS) -fimplicit-none -J$(PFB) -I$(BUILD) -I$(HDF5_INC) $(PFUNIT_EXTRA_FFLAGS)
+PF_OBJ    := $(patsubst %,$(PFB)/test_%.o,$(SUITES))
+UNIT_EXE  := $(PFB)/unit_tests
+UNIT_KIND := pfunit
+UNIT_LABEL = pFUnit $(PFUNIT_VERSION) from $(PFUNIT_TOP_DIR)
+
+$(PFB)/test_%.F90: tests/unit/test_%.pf | $(PFB)
+	$(PYTHON) $(PFUNIT_BIN_DIR)/funitproc -quiet $< $@
+
+$(PF_OBJ): $(PFB)/%.o: $(PFB)/%.F90 $(BUILD)/bitwise.o
+	$(FC) $(PF_FFLAGS) -c $< -o $@
+
+$(PFB)/unit_tests.inc: $(PF_SRC) Makefile | $(PFB)
+	@printf 'ADD_TEST_SUITE(test_%s_suite)\n' $(SUITES) > $@
+
+$(PFB)/driver.o: $(PFUNIT_INCLUDE_DIR)/driver.F90 $(PFB)/unit_tests.inc
+	$(FC) $(PF_FFLAGS) -I$(PFB) -D_TEST_SUITES='"unit_tests.inc"' -c $< -o $@
+
+$(UNIT_EXE): $(PFB)/driver.o $(PF_OBJ) $(LIB_OBJ) $(BUILD)/bitwise.o
+	$(FC) $(OPTFLAGS) -o $@ $^ $(LDLIBS) $(PFUNIT_LIBRARIES)
+
+$(PFB):
+	mkdir -p $@
+else
 # The translated suites go to $(PF2F90) with their module files; the
 # runner calls each module's test_<unit>_suite() (written by pf2f90.py).
 # An @mpitest takes `this` whether it uses it or not: no warning for that.
@@ -76,7 +119,8 @@ TFLAGS    := $(OPTFLAGS) $(WFLAGS) -Wno-unused-dummy-argument -J$(PF2F90) -I$(BU
              -I$(HDF5_INC) -I/usr/include
 PF_OBJ    := $(patsubst %,$(PF2F90)/test_%.o,$(SUITES))
 UNIT_EXE  := $(BUILD)/unit_tests
-UNIT_LABEL = tests/pf2f90.py
+UNIT_KIND := pf2f90
+UNIT_LABEL = tests/pf2f90.py (pFUnit not found)
 
 $(PF2F90)/test_%.F90: tests/unit/test_%.pf tests/pf2f90.py | $(PF2F90)
 	$(PYTHON) tests/pf2f90.py $< $@
@@ -109,12 +153,13 @@ $(UNIT_EXE): $(LIB_OBJ) $(BUILD)/testing.o $(BUILD)/bitwise.o $(PF_OBJ) $(PF2F90
 
 $(PF2F90):
 	mkdir -p $@
+endif
 
 unit: $(UNIT_EXE)
 
 test: sph $(UNIT_EXE)
 	@BUILD=$(BUILD) PYTHON=$(PYTHON) NP_TEST="$(NP_TEST)" UNIT_EXE=$(UNIT_EXE) \
-	  UNIT_LABEL="$(UNIT_LABEL)" bash tests/run_tests.sh
+	  UNIT_KIND=$(UNIT_KIND) UNIT_LABEL="$(UNIT_LABEL)" bash tests/run_tests.sh
 
 # The validation study behind doc/validation.md: runs circle2d at four
 # resolutions, ellipsoid3d at two and the square patches, then the errors,
