@@ -32,7 +32,8 @@ import sys
 
 MAX_COLUMNS = 132   # free-form Fortran's line length
 
-# directive -> (positional arguments, allowed keywords, required keywords)
+# directive (any case) -> (the harness's name, positional arguments,
+# allowed keywords, required keywords)
 ASSERTIONS = {
     'asserttrue': ('assertTrue', 1, {'message'}, set()),
     'assertfalse': ('assertFalse', 1, {'message'}, set()),
