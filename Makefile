@@ -19,19 +19,18 @@ WFLAGS   := -std=f2018 -Wall -Wextra -Wimplicit-interface -fimplicit-none
 FFLAGS   := $(OPTFLAGS) $(WFLAGS) -J$(BUILD) -I$(BUILD) -I$(HDF5_INC) -I/usr/include
 LDLIBS   := -L$(HDF5_LIB) -Wl,-rpath,$(HDF5_LIB) -lhdf5_fortran -lhdf5 -lfftw3 -lmetis
 
-# EXCLUDE (file names without .f90) leaves work in progress out of a build.
+# EXCLUDE (file names without extension) leaves work in progress out of a
+# build, e.g. EXCLUDE=test_eos a unit-test suite.
 EXCLUDE   ?=
 SRC       := $(filter-out $(patsubst %,src/%.f90,$(EXCLUDE)),$(wildcard src/*.f90))
 LIB_SRC   := $(filter-out src/main.f90,$(SRC))
 SUITES    := $(filter-out $(patsubst test_%,%,$(EXCLUDE)),\
-               $(patsubst tests/unit/test_%.f90,%,$(wildcard tests/unit/test_*.f90)))
-TEST_SRC  := tests/testing.f90 $(patsubst %,tests/unit/test_%.f90,$(SUITES))
+               $(patsubst tests/unit/test_%.pf,%,$(wildcard tests/unit/test_*.pf)))
+PF_SRC    := $(patsubst %,tests/unit/test_%.pf,$(SUITES))
 
 LIB_OBJ   := $(patsubst src/%.f90,$(BUILD)/%.o,$(LIB_SRC))
-TEST_OBJ  := $(patsubst %.f90,$(BUILD)/%.o,$(notdir $(TEST_SRC)))
-RUNNER    := $(BUILD)/run_unit_tests.f90
 
-vpath %.f90 src tests tests/unit
+vpath %.f90 src tests
 
 .PHONY: all sph debug test unit bench validate clean
 all: sph
@@ -50,47 +49,117 @@ $(BUILD):
 	mkdir -p $@
 
 # Module dependencies: "use foo" in any source makes its object depend on
-# $(BUILD)/foo.o when foo is one of ours.
-$(BUILD)/deps.mk: $(SRC) $(TEST_SRC) | $(BUILD)
-	@for f in $(SRC) $(TEST_SRC); do \
-	  o=$(BUILD)/$$(basename $$f .f90).o; \
+# $(BUILD)/foo.o when foo is one of ours (for a .pf file: the objects of
+# both unit-test builds below).
+DEP_SRC := $(SRC) tests/testing.f90 tests/bitwise.f90 $(PF_SRC)
+$(BUILD)/deps.mk: $(DEP_SRC) | $(BUILD)
+	@for f in $(DEP_SRC); do \
+	  b=$$(basename $$f); b=$${b%.*}; \
+	  case $$f in *.pf) o="$(PF2F90)/$$b.o $(PFB)/$$b.o";; *) o=$(BUILD)/$$b.o;; esac; \
 	  for m in $$(sed -nE 's/^[[:space:]]*use[[:space:]]*(,[[:space:]]*non_intrinsic[[:space:]]*::)?[[:space:]]*([A-Za-z0-9_]+).*/\2/Ip' $$f | tr A-Z a-z | sort -u); do \
-	    for d in src tests tests/unit; do \
-	      if [ -f $$d/$$m.f90 ] && [ $$m != $$(basename $$f .f90) ]; then echo "$$o: $(BUILD)/$$m.o"; fi; \
+	    for d in src tests; do \
+	      if [ -f $$d/$$m.f90 ] && [ $$m != $$b ]; then echo "$$o: $(BUILD)/$$m.o"; fi; \
 	    done; \
 	  done; \
 	done > $@
 -include $(BUILD)/deps.mk
 
-# The unit-test runner is generated from the suites present: each
-# tests/unit/test_<unit>.f90 provides module test_<unit> with suite_<unit>().
-$(RUNNER): $(TEST_SRC) | $(BUILD)
+# ---------------------------------------------------------------- unit tests
+# tests/unit/test_<unit>.pf are written in pFUnit's test language.  With
+# pFUnit 4 installed (PFUNIT_DIR, on the command line or in the environment:
+# its PFUNIT-4.x directory, the prefix holding it or its cmake/ directory),
+# pFUnit's preprocessor and driver build them; without it, tests/pf2f90.py
+# translates them for the harness tests/testing.f90.  Either way
+# tests/run_tests.sh runs the result (README, "Unit tests").
+PF2F90 := $(BUILD)/pf2f90
+PFB    := $(BUILD)/pfunit
+
+ifneq ($(strip $(PFUNIT_DIR)),)
+PFUNIT_MK := $(firstword $(wildcard $(PFUNIT_DIR)/include/PFUNIT.mk \
+                                    $(PFUNIT_DIR)/PFUNIT-*/include/PFUNIT.mk \
+                                    $(PFUNIT_DIR)/../include/PFUNIT.mk))
+ifeq ($(PFUNIT_MK),)
+$(error PFUNIT_DIR=$(PFUNIT_DIR) has no include/PFUNIT.mk: give pFUnit's PFUNIT-4.x directory)
+endif
+# before PFUNIT.mk: without it PFUNIT_LIBRARIES lacks -lpfunit (MpiTestMethod)
+USEMPI := YES
+include $(PFUNIT_MK)
+
+# The steps of PFUNIT.mk's make_pfunit_test, written out so that funitproc
+# runs under $(PYTHON) (its "#!/usr/bin/env python" finds no python on
+# Debian) and everything it makes stays in $(PFB).
+PF_FFLAGS := $(OPTFLAGS) -fimplicit-none -J$(PFB) -I$(BUILD) -I$(HDF5_INC) $(PFUNIT_EXTRA_FFLAGS)
+PF_OBJ    := $(patsubst %,$(PFB)/test_%.o,$(SUITES))
+UNIT_EXE  := $(PFB)/unit_tests
+UNIT_KIND := pfunit
+UNIT_LABEL = pFUnit $(PFUNIT_VERSION) from $(PFUNIT_TOP_DIR)
+
+$(PFB)/test_%.F90: tests/unit/test_%.pf | $(PFB)
+	$(PYTHON) $(PFUNIT_BIN_DIR)/funitproc -quiet $< $@
+
+$(PF_OBJ): $(PFB)/%.o: $(PFB)/%.F90 $(BUILD)/bitwise.o
+	$(FC) $(PF_FFLAGS) -c $< -o $@
+
+$(PFB)/unit_tests.inc: $(PF_SRC) Makefile | $(PFB)
+	@printf 'ADD_TEST_SUITE(test_%s_suite)\n' $(SUITES) > $@
+
+$(PFB)/driver.o: $(PFUNIT_INCLUDE_DIR)/driver.F90 $(PFB)/unit_tests.inc
+	$(FC) $(PF_FFLAGS) -I$(PFB) -D_TEST_SUITES='"unit_tests.inc"' -c $< -o $@
+
+$(UNIT_EXE): $(PFB)/driver.o $(PF_OBJ) $(LIB_OBJ) $(BUILD)/bitwise.o
+	$(FC) $(OPTFLAGS) -o $@ $^ $(LDLIBS) $(PFUNIT_LIBRARIES)
+
+$(PFB):
+	mkdir -p $@
+else
+# The translated suites go to $(PF2F90) with their module files; the
+# runner calls each module's test_<unit>_suite() (written by pf2f90.py).
+# An @mpitest takes `this` whether it uses it or not: no warning for that.
+TFLAGS    := $(OPTFLAGS) $(WFLAGS) -Wno-unused-dummy-argument -J$(PF2F90) -I$(BUILD) \
+             -I$(HDF5_INC) -I/usr/include
+PF_OBJ    := $(patsubst %,$(PF2F90)/test_%.o,$(SUITES))
+UNIT_EXE  := $(BUILD)/unit_tests
+UNIT_KIND := pf2f90
+UNIT_LABEL = tests/pf2f90.py (pFUnit not found)
+
+$(PF2F90)/test_%.F90: tests/unit/test_%.pf tests/pf2f90.py | $(PF2F90)
+	$(PYTHON) tests/pf2f90.py $< $@
+
+$(PF_OBJ): $(PF2F90)/%.o: $(PF2F90)/%.F90 $(BUILD)/testing.o $(BUILD)/bitwise.o
+	$(FC) $(TFLAGS) -c $< -o $@
+
+$(PF2F90)/run_unit_tests.f90: $(PF_SRC) Makefile | $(PF2F90)
 	@{ echo 'program run_unit_tests'; \
 	   echo '  use mpi_f08, only: MPI_Init, MPI_Finalize, MPI_Comm, MPI_Comm_dup, MPI_COMM_WORLD'; \
 	   echo '  use testing, only: testing_init, testing_summary'; \
-	   for s in $(SUITES); do echo "  use test_$$s, only: suite_$$s"; done; \
+	   for s in $(SUITES); do echo "  use test_$$s, only: test_$${s}_suite"; done; \
 	   echo '  implicit none'; \
 	   echo '  type(MPI_Comm) :: comm'; \
 	   echo '  integer :: nfailed'; \
 	   echo '  call MPI_Init()'; \
 	   echo '  call MPI_Comm_dup(MPI_COMM_WORLD, comm)'; \
 	   echo '  call testing_init(comm)'; \
-	   for s in $(SUITES); do echo "  call suite_$$s()"; done; \
+	   for s in $(SUITES); do echo "  call test_$${s}_suite()"; done; \
 	   echo '  nfailed = testing_summary()'; \
 	   echo '  call MPI_Finalize()'; \
 	   echo '  if (nfailed > 0) error stop 1'; \
 	   echo 'end program run_unit_tests'; } > $@
 
-$(BUILD)/run_unit_tests.o: $(RUNNER) $(TEST_OBJ)
-	$(FC) $(FFLAGS) -c $< -o $@
+$(PF2F90)/run_unit_tests.o: $(PF2F90)/run_unit_tests.f90 $(PF_OBJ)
+	$(FC) $(TFLAGS) -c $< -o $@
 
-$(BUILD)/unit_tests: $(LIB_OBJ) $(TEST_OBJ) $(BUILD)/run_unit_tests.o
+$(UNIT_EXE): $(LIB_OBJ) $(BUILD)/testing.o $(BUILD)/bitwise.o $(PF_OBJ) $(PF2F90)/run_unit_tests.o
 	$(FC) $(FFLAGS) -o $@ $^ $(LDLIBS)
 
-unit: $(BUILD)/unit_tests
+$(PF2F90):
+	mkdir -p $@
+endif
 
-test: sph $(BUILD)/unit_tests
-	@BUILD=$(BUILD) PYTHON=$(PYTHON) NP_TEST="$(NP_TEST)" bash tests/run_tests.sh
+unit: $(UNIT_EXE)
+
+test: sph $(UNIT_EXE)
+	@BUILD=$(BUILD) PYTHON=$(PYTHON) NP_TEST="$(NP_TEST)" UNIT_EXE=$(UNIT_EXE) \
+	  UNIT_KIND=$(UNIT_KIND) UNIT_LABEL="$(UNIT_LABEL)" bash tests/run_tests.sh
 
 # The validation study behind doc/validation.md: runs circle2d at four
 # resolutions, ellipsoid3d at two and the square patches, then the errors,
