@@ -12,8 +12,12 @@
 !> Overrides go through the same item reader.  No output here: config_load
 !> returns ok and one message; every rank reads the same file the same way.
 module config
-  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use kinds, only: wp, i8
+  use input_text, only: fail, closest, allowed_words, quoted_list, quoted, shown_value, &
+                        unquoted, value_is_bare, base_name, word_at, name_end_at, lower, pad, &
+                        int_str, num_str, real_list, real_str
+  use namelist_scan, only: load_text, find_group_end, split_items
   implicit none
   private
   public :: config_t, run_params_t, particles_params_t, physics_params_t, &
@@ -349,10 +353,6 @@ module config
     integer :: line
   end type origin_t
 
-  interface int_str
-    module procedure int_str_default, int_str_i8
-  end interface int_str
-
 contains
 
   ! ------------------------------------------------------------------------
@@ -512,132 +512,6 @@ contains
     end do
   end subroutine read_file
 
-  !> The file as one string buf with comments blanked and each line end made
-  !> a blank; line_of(i) is the line of buf(i:i).
-  subroutine load_text(path, buf, line_of, err)
-    character(len=*), intent(in) :: path
-    character(len=:), allocatable, intent(out) :: buf
-    integer, allocatable, intent(out) :: line_of(:)
-    character(len=:), allocatable, intent(inout) :: err
-    character(len=:), allocatable :: line
-    character(len=512) :: iomsg
-    integer :: u, ios, nline
-    logical :: is_dir, quote_open
-
-    buf = ''
-    allocate(line_of(0))
-    if (len_trim(path) == 0) then
-      call fail(err, 'command line', 'no input file given', 0, &
-                ': give a namelist file, e.g. input/circle2d.nml')
-      return
-    end if
-    ! gfortran opens a directory without complaint and reads it as empty.
-    inquire(file=trim(path) // '/.', exist=is_dir)
-    if (is_dir) then
-      call fail(err, path, 'cannot open the file', 0, ': it is a directory')
-      return
-    end if
-    open(newunit=u, file=path, status='old', action='read', form='formatted', &
-         iostat=ios, iomsg=iomsg)
-    if (ios /= 0) then
-      call fail(err, path, 'cannot open the file', 0, ': ' // os_reason(iomsg))
-      return
-    end if
-    nline = 0
-    do
-      call read_line(u, line, ios, iomsg)
-      if (ios < 0) exit
-      if (ios > 0) then
-        call fail(err, path, 'cannot read the file', 0, ': ' // trim(iomsg))
-        close(u)
-        return
-      end if
-      nline = nline + 1
-      call strip_comment(line, quote_open)
-      if (quote_open) then
-        call fail(err, path, 'a quoted string is not closed', nline, &
-                  ': ' // trim(adjustl(line)))
-        close(u)
-        return
-      end if
-      buf = buf // line // ' '
-      line_of = [line_of, spread(nline, 1, len(line) + 1)]
-    end do
-    close(u)
-  end subroutine load_text
-
-  !> One line of any length; ios < 0 at the end of the file.
-  subroutine read_line(u, line, ios, iomsg)
-    integer, intent(in) :: u
-    character(len=:), allocatable, intent(out) :: line
-    integer, intent(out) :: ios
-    character(len=*), intent(inout) :: iomsg
-    character(len=1024) :: chunk
-    integer :: n
-    line = ''
-    do
-      read(u, '(a)', advance='no', iostat=ios, iomsg=iomsg, size=n) chunk
-      line = line // chunk(1:n)
-      if (ios /= 0) exit
-    end do
-    if (is_iostat_eor(ios)) ios = 0
-    ! A last line without a newline is still a line.
-    if (is_iostat_end(ios) .and. len(line) > 0) ios = 0
-  end subroutine read_line
-
-  !> Tabs and a trailing carriage return become blanks and a `!` comment is
-  !> blanked (quotes respected); quote_open if a quote is left open.
-  subroutine strip_comment(line, quote_open)
-    character(len=*), intent(inout) :: line
-    logical, intent(out) :: quote_open
-    character(len=1) :: quote, ch
-    integer :: i
-    quote = ' '
-    do i = 1, len(line)
-      ch = line(i:i)
-      if (ch == achar(9) .or. ch == achar(13)) line(i:i) = ' '
-      if (quote /= ' ') then
-        if (ch == quote) quote = ' '
-      else if (ch == '''' .or. ch == '"') then
-        quote = ch
-      else if (ch == '!') then
-        line(i:) = ' '
-        exit
-      end if
-    end do
-    quote_open = quote /= ' '
-  end subroutine strip_comment
-
-  !> The end of group body starting at buf(from:): term is the position of
-  !> its '/' (term_len 1) or '&end' (term_len 4); term_len = 0 if another
-  !> group starts first (term at its '&'); term = 0 if the file ends first.
-  subroutine find_group_end(buf, from, term, term_len)
-    character(len=*), intent(in) :: buf
-    integer, intent(in) :: from
-    integer, intent(out) :: term, term_len
-    character(len=1) :: quote, ch
-    integer :: i
-    term = 0
-    term_len = 0
-    quote = ' '
-    do i = from, len(buf)
-      ch = buf(i:i)
-      if (quote /= ' ') then
-        if (ch == quote) quote = ' '
-      else if (ch == '''' .or. ch == '"') then
-        quote = ch
-      else if (ch == '/') then
-        term = i
-        term_len = 1
-        return
-      else if (ch == '&') then
-        term = i
-        if (lower(buf(i + 1:name_end_at(buf, i + 1))) == 'end') term_len = 4
-        return
-      end if
-    end do
-  end subroutine find_group_end
-
   !> Reads the items of one group body (from the file) into cfg.
   subroutine read_group_body(g, body, line_of, path, cfg, origins, err)
     integer, intent(in) :: g
@@ -695,67 +569,6 @@ contains
       call set_origin(origins, trim(GROUPS(g)%name) // '.' // base_name(name), line)
     end do
   end subroutine read_group_body
-
-  !> The starts of the `name = value` items of a group body and the
-  !> positions of their '=': an item starts at the name before an '='
-  !> outside quotes (a name may carry an index, as in probes(1,2)).
-  subroutine split_items(body, starts, eqs)
-    character(len=*), intent(in) :: body
-    integer, allocatable, intent(out) :: starts(:), eqs(:)
-    character(len=1) :: quote, ch
-    integer :: i, j
-    allocate(starts(0), eqs(0))
-    quote = ' '
-    do i = 1, len(body)
-      ch = body(i:i)
-      if (quote /= ' ') then
-        if (ch == quote) quote = ' '
-      else if (ch == '''' .or. ch == '"') then
-        quote = ch
-      else if (ch == '=') then
-        j = name_start(body, i)
-        if (j > 0) then
-          starts = [starts, j]
-          eqs = [eqs, i]
-        end if
-      end if
-    end do
-  end subroutine split_items
-
-  !> Where the name before the '=' at body(eq:eq) starts, 0 if there is no
-  !> name (blanks and an index in parentheses may sit between).
-  integer function name_start(body, eq)
-    character(len=*), intent(in) :: body
-    integer, intent(in) :: eq
-    integer :: j, depth
-    name_start = 0
-    j = eq - 1
-    do while (j >= 1)
-      if (body(j:j) /= ' ') exit
-      j = j - 1
-    end do
-    if (j < 1) return
-    if (body(j:j) == ')') then
-      depth = 0
-      do while (j >= 1)
-        if (body(j:j) == ')') depth = depth + 1
-        if (body(j:j) == '(') depth = depth - 1
-        if (depth == 0) exit
-        j = j - 1
-      end do
-      j = j - 1
-      do while (j >= 1)
-        if (body(j:j) /= ' ') exit
-        j = j - 1
-      end do
-    end if
-    do while (j >= 1)
-      if (.not. is_name_char(body(j:j))) exit
-      j = j - 1
-    end do
-    if (j + 1 > len(body)) return
-    if (is_letter(body(j + 1:j + 1))) name_start = j + 1
-  end function name_start
 
   ! ------------------------------------------------------------------------
   ! Overrides
@@ -1553,9 +1366,6 @@ contains
   ! Messages
   ! ------------------------------------------------------------------------
 
-  !> The one way an error message is made: "origin: what (line N)hint".
-  !> origin is the file or 'command line'; the line only if known (> 0);
-  !> hint says what is allowed or what to do.
   !> A non-empty file name given for variable `key` (group.name) must name
   !> an existing file; err says so otherwise.
   subroutine require_file(err, origins, path, key, file, hint)
@@ -1573,16 +1383,6 @@ contains
     call fail(err, origin, '&' // key(1:dot - 1) // ' ' // key(dot + 1:) // ' = ' // quoted(file) &
               // ' does not exist', line, hint)
   end subroutine require_file
-
-  subroutine fail(err, origin, what, line, hint)
-    character(len=:), allocatable, intent(inout) :: err
-    character(len=*), intent(in) :: origin, what
-    integer, intent(in) :: line
-    character(len=*), intent(in) :: hint
-    err = origin // ': ' // what
-    if (line > 0) err = err // ' (line ' // int_str(line) // ')'
-    err = err // hint
-  end subroutine fail
 
   !> What is allowed for v, e.g. "0 < cfl <= 3" or "one of 'rk4', 'pc2'".
   function allowed_text(v) result(s)
@@ -1670,40 +1470,6 @@ contains
       first = .false.
     end do
   end function unknown_var_hint
-
-  !> The candidate closest to word by edit distance if it is close enough to
-  !> be a typo (at most a third of the word's letters, at least 1), else ''.
-  function closest(word, candidates) result(best)
-    character(len=*), intent(in) :: word
-    character(len=*), intent(in) :: candidates(:)
-    character(len=:), allocatable :: best
-    integer :: k, d, dmin
-    best = ''
-    dmin = max(1, len_trim(word) / 3) + 1
-    do k = 1, size(candidates)
-      d = edit_distance(trim(word), trim(candidates(k)))
-      if (d < dmin) then
-        dmin = d
-        best = trim(candidates(k))
-      end if
-    end do
-  end function closest
-
-  !> Levenshtein distance (insertions, deletions, substitutions).
-  pure integer function edit_distance(a, b) result(d)
-    character(len=*), intent(in) :: a, b
-    integer :: prev(0:len(b)), cur(0:len(b)), i, j
-    prev = [(j, j = 0, len(b))]
-    do i = 1, len(a)
-      cur(0) = i
-      do j = 1, len(b)
-        cur(j) = min(prev(j) + 1, cur(j - 1) + 1, &
-                     prev(j - 1) + merge(0, 1, a(i:i) == b(j:j)))
-      end do
-      prev = cur
-    end do
-    d = prev(len(b))
-  end function edit_distance
 
   !> "a real number", "an integer", ... for "cannot be read as ...".
   function type_text(v) result(s)
@@ -1818,243 +1584,5 @@ contains
       allocate(list(0))
     end select
   end function choice_list
-
-  !> "'a', 'b', 'c'".
-  function allowed_words(list) result(s)
-    character(len=*), intent(in) :: list(:)
-    character(len=:), allocatable :: s
-    integer :: k
-    s = ''
-    do k = 1, size(list)
-      if (k > 1) s = s // ', '
-      s = s // quoted(list(k))
-    end do
-  end function allowed_words
-
-  function quoted_list(list) result(q)
-    character(len=*), intent(in) :: list(:)
-    character(len=len(list) + 2), allocatable :: q(:)
-    integer :: k
-    allocate(q(size(list)))
-    do k = 1, size(list)
-      q(k) = quoted(list(k))
-    end do
-  end function quoted_list
-
-  !> s (without trailing blanks) in single quotes, inner quotes doubled.
-  function quoted(s) result(q)
-    character(len=*), intent(in) :: s
-    character(len=:), allocatable :: q
-    integer :: i
-    q = ''''
-    do i = 1, len_trim(s)
-      q = q // s(i:i)
-      if (s(i:i) == '''') q = q // ''''
-    end do
-    q = q // ''''
-  end function quoted
-
-  !> An item's value as the user wrote it, for messages: without the
-  !> surrounding blanks and a trailing separator.
-  function shown_value(value) result(s)
-    character(len=*), intent(in) :: value
-    character(len=:), allocatable :: s
-    s = trim(adjustl(value))
-    if (len(s) > 0) then
-      if (s(len(s):len(s)) == ',' .or. s(len(s):len(s)) == ';') s = trim(s(1:len(s) - 1))
-    end if
-  end function shown_value
-
-  !> value with every quoted part blanked.
-  function unquoted(value) result(s)
-    character(len=*), intent(in) :: value
-    character(len=len(value)) :: s
-    character(len=1) :: quote
-    integer :: i
-    s = value
-    quote = ' '
-    do i = 1, len(value)
-      if (quote /= ' ') then
-        if (value(i:i) == quote) quote = ' '
-        s(i:i) = ' '
-      else if (value(i:i) == '''' .or. value(i:i) == '"') then
-        quote = value(i:i)
-        s(i:i) = ' '
-      end if
-    end do
-  end function unquoted
-
-  !> A value written without quotes, e.g. circle2d rather than 'circle2d'.
-  logical function value_is_bare(value)
-    character(len=*), intent(in) :: value
-    character(len=:), allocatable :: s
-    s = shown_value(value)
-    value_is_bare = .true.
-    if (len(s) > 0) value_is_bare = s(1:1) /= '''' .and. s(1:1) /= '"'
-  end function value_is_bare
-
-  !> The name without its index: 'probes' for 'probes(1,2)'.
-  function base_name(name) result(s)
-    character(len=*), intent(in) :: name
-    character(len=:), allocatable :: s
-    integer :: k
-    k = index(name, '(')
-    if (k == 0) k = len(name) + 1
-    s = lower(trim(adjustl(name(1:k - 1))))
-  end function base_name
-
-  !> The blank-delimited word at buf(pos:), at most 40 characters.
-  function word_at(buf, pos) result(s)
-    character(len=*), intent(in) :: buf
-    integer, intent(in) :: pos
-    character(len=:), allocatable :: s
-    integer :: last
-    last = index(buf(pos:), ' ') + pos - 2
-    if (last < pos) last = len(buf)
-    s = buf(pos:min(last, pos + 39))
-  end function word_at
-
-  !> The last position of the name starting at buf(pos:) (pos - 1 if none).
-  integer function name_end_at(buf, pos)
-    character(len=*), intent(in) :: buf
-    integer, intent(in) :: pos
-    name_end_at = pos - 1
-    do while (name_end_at < len(buf))
-      if (.not. is_name_char(buf(name_end_at + 1:name_end_at + 1))) exit
-      name_end_at = name_end_at + 1
-    end do
-  end function name_end_at
-
-  logical function is_letter(ch)
-    character(len=1), intent(in) :: ch
-    is_letter = (ch >= 'a' .and. ch <= 'z') .or. (ch >= 'A' .and. ch <= 'Z')
-  end function is_letter
-
-  logical function is_name_char(ch)
-    character(len=1), intent(in) :: ch
-    is_name_char = is_letter(ch) .or. (ch >= '0' .and. ch <= '9') .or. ch == '_'
-  end function is_name_char
-
-  function lower(s) result(t)
-    character(len=*), intent(in) :: s
-    character(len=len(s)) :: t
-    integer :: i
-    t = s
-    do i = 1, len(s)
-      if (s(i:i) >= 'A' .and. s(i:i) <= 'Z') t(i:i) = achar(iachar(s(i:i)) + 32)
-    end do
-  end function lower
-
-  !> s padded with blanks to at least n characters.
-  function pad(s, n) result(t)
-    character(len=*), intent(in) :: s
-    integer, intent(in) :: n
-    character(len=max(len(s), n)) :: t
-    t = s
-  end function pad
-
-  !> The system's reason from gfortran's "Cannot open file 'x': reason".
-  function os_reason(iomsg) result(s)
-    character(len=*), intent(in) :: iomsg
-    character(len=:), allocatable :: s
-    integer :: k
-    k = index(iomsg, ''': ', back=.true.)
-    s = trim(iomsg(k + 1:))
-    if (k > 0) s = trim(iomsg(k + 3:))
-  end function os_reason
-
-  function int_str_default(k) result(s)
-    integer, intent(in) :: k
-    character(len=:), allocatable :: s
-    character(len=24) :: buf
-    write(buf, '(i0)') k
-    s = trim(buf)
-  end function int_str_default
-
-  function int_str_i8(k) result(s)
-    integer(i8), intent(in) :: k
-    character(len=:), allocatable :: s
-    character(len=24) :: buf
-    write(buf, '(i0)') k
-    s = trim(buf)
-  end function int_str_i8
-
-  !> A bound: a whole number as an integer ("3"), else as real_str.
-  function num_str(x) result(s)
-    real(wp), intent(in) :: x
-    character(len=:), allocatable :: s
-    if (abs(x) < 1.0e15_wp .and. .not. abs(x - aint(x)) > 0) then
-      s = int_str(nint(x, i8))
-    else
-      s = real_str(x)
-    end if
-  end function num_str
-
-  !> "x1, x2, x3".
-  function real_list(x) result(s)
-    real(wp), intent(in) :: x(:)
-    character(len=:), allocatable :: s
-    integer :: k
-    s = ''
-    do k = 1, size(x)
-      if (k > 1) s = s // ', '
-      s = s // real_str(x(k))
-    end do
-  end function real_list
-
-  !> The shortest decimal text that reads back as exactly x: 0.1, 2.0,
-  !> -1.0, 1.0e-12 (so that echoed files reproduce the configuration).
-  function real_str(x) result(s)
-    real(wp), intent(in) :: x
-    character(len=:), allocatable :: s
-    character(len=40) :: buf, fmt
-    character(len=:), allocatable :: digits, int_part, frac
-    real(wp) :: y
-    integer :: d, e, k, ios
-    if (ieee_is_nan(x)) then
-      s = 'NaN'
-      return
-    else if (.not. ieee_is_finite(x)) then
-      s = 'Infinity'
-      if (x < 0) s = '-Infinity'
-      return
-    end if
-    ! The fewest significant digits (d + 1) that give x back; 17 always do.
-    do d = 1, 16
-      write(fmt, '(a,i0,a)') '(es40.', d, 'e3)'
-      write(buf, fmt) x
-      read(buf, *, iostat=ios) y
-      if (ios == 0 .and. transfer(y, 0_i8) == transfer(x, 0_i8)) exit
-    end do
-    buf = adjustl(buf)
-    k = index(buf, 'E')
-    read(buf(k + 1:), *) e
-    digits = ''
-    do d = 1, k - 1
-      if (buf(d:d) >= '0' .and. buf(d:d) <= '9') digits = digits // buf(d:d)
-    end do
-    do while (len(digits) > 1)
-      if (digits(len(digits):len(digits)) /= '0') exit
-      digits = digits(1:len(digits) - 1)
-    end do
-    if (e >= -4 .and. e < 16) then
-      if (e < 0) then
-        int_part = '0'
-        frac = repeat('0', -e - 1) // digits
-      else if (len(digits) <= e + 1) then
-        int_part = digits // repeat('0', e + 1 - len(digits))
-        frac = '0'
-      else
-        int_part = digits(1:e + 1)
-        frac = digits(e + 2:)
-      end if
-      s = int_part // '.' // frac
-    else
-      frac = digits(2:)
-      if (len(frac) == 0) frac = '0'
-      s = digits(1:1) // '.' // frac // 'e' // int_str(e)
-    end if
-    if (buf(1:1) == '-') s = '-' // s
-  end function real_str
 
 end module config
