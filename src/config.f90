@@ -638,191 +638,19 @@ contains
     end if
     select case (generic_group(c, g))
     case (G_RUN)
-      call read_run(text, c%run, ios, iomsg)
+      call c%run%read_group(text, ios, iomsg)
     case (G_PARTICLES)
-      call read_particles(text, c%particles, ios, iomsg)
+      call c%particles%read_group(text, ios, iomsg)
     case (G_PHYSICS)
-      call read_physics(text, c%physics, ios, iomsg)
+      call c%physics%read_group(text, ios, iomsg)
     case (G_NUMERICS)
-      call read_numerics(text, c%numerics, ios, iomsg)
+      call c%numerics%read_group(text, ios, iomsg)
     case (G_OUTPUT)
-      call read_output(text, c%output, ios, iomsg)
-    case (G_PARALLEL)
-      call read_parallel(text, c%parallel, ios, iomsg)
+      call c%output%read_group(text, ios, iomsg)
     case default
-      ios = 1
+      call c%parallel%read_group(text, ios, iomsg)
     end select
   end subroutine read_group
-
-  ! One reader per group: the namelist needs local variables with the names
-  ! the user writes.  Each starts from the current values, so an item
-  ! changes only its own variable, and stores nothing if the read fails.
-
-  subroutine read_run(text, p, ios, iomsg)
-    character(len=*), intent(in) :: text
-    type(run_params_t), intent(inout) :: p
-    integer, intent(out) :: ios
-    character(len=*), intent(inout) :: iomsg
-    character(len=NAME_LEN) :: case
-    character(len=4 * DIR_LEN_MAX) :: restart   ! wider than p%restart, as for output.dir
-    real(wp) :: t_end, progress_interval
-    integer :: max_steps
-    namelist /run/ case, t_end, max_steps, progress_interval, restart
-    case = p%case_name
-    t_end = p%t_end
-    max_steps = p%max_steps
-    progress_interval = p%progress_interval
-    restart = p%restart
-    read(text, nml=run, iostat=ios, iomsg=iomsg)
-    if (ios /= 0) return
-    p%case_name = case
-    p%t_end = t_end
-    p%max_steps = max_steps
-    p%progress_interval = progress_interval
-    p%restart = restart(1:len(p%restart))
-  end subroutine read_run
-
-  subroutine read_particles(text, p, ios, iomsg)
-    character(len=*), intent(in) :: text
-    type(particles_params_t), intent(inout) :: p
-    integer, intent(out) :: ios
-    character(len=*), intent(inout) :: iomsg
-    integer :: n
-    character(len=NAME_LEN) :: placement
-    character(len=4 * DIR_LEN_MAX) :: from   ! wider than p%from, as for output.dir
-    real(wp) :: h_over_dx
-    integer :: pack_iterations
-    namelist /particles/ n, placement, h_over_dx, pack_iterations, from
-    n = p%n
-    placement = p%placement
-    h_over_dx = p%h_over_dx
-    pack_iterations = p%pack_iterations
-    from = p%from
-    read(text, nml=particles, iostat=ios, iomsg=iomsg)
-    if (ios /= 0) return
-    p%n = n
-    p%placement = placement
-    p%h_over_dx = h_over_dx
-    p%pack_iterations = pack_iterations
-    p%from = from(1:len(p%from))
-  end subroutine read_particles
-
-  subroutine read_physics(text, p, ios, iomsg)
-    character(len=*), intent(in) :: text
-    type(physics_params_t), intent(inout) :: p
-    integer, intent(out) :: ios
-    character(len=*), intent(inout) :: iomsg
-    real(wp) :: rho0, c0, gamma
-    character(len=NAME_LEN) :: eos
-    namelist /physics/ rho0, c0, eos, gamma
-    rho0 = p%rho0
-    c0 = p%c0
-    eos = p%eos
-    gamma = p%gamma
-    read(text, nml=physics, iostat=ios, iomsg=iomsg)
-    if (ios /= 0) return
-    p%rho0 = rho0
-    p%c0 = c0
-    p%eos = eos
-    p%gamma = gamma
-  end subroutine read_physics
-
-  subroutine read_numerics(text, p, ios, iomsg)
-    character(len=*), intent(in) :: text
-    type(numerics_params_t), intent(inout) :: p
-    integer, intent(out) :: ios
-    character(len=*), intent(inout) :: iomsg
-    character(len=NAME_LEN) :: kernel, integrator, viscosity, diffusion
-    character(len=NAME_LEN) :: pressure_gradient, divergence, renormalise
-    real(wp) :: cfl, cfl_force, cfl_visc, alpha, delta, skin, tensile_eps
-    logical :: tensile, shifting
-    integer :: tensile_n
-    namelist /numerics/ kernel, integrator, cfl, cfl_force, cfl_visc, viscosity, alpha, &
-                        diffusion, delta, skin, tensile, tensile_eps, tensile_n, &
-                        pressure_gradient, divergence, shifting, renormalise
-    kernel = p%kernel
-    integrator = p%integrator
-    cfl = p%cfl
-    cfl_force = p%cfl_force
-    cfl_visc = p%cfl_visc
-    viscosity = p%viscosity
-    alpha = p%alpha
-    diffusion = p%diffusion
-    delta = p%delta
-    skin = p%skin
-    tensile = p%tensile
-    tensile_eps = p%tensile_eps
-    tensile_n = p%tensile_n
-    pressure_gradient = p%pressure_gradient
-    divergence = p%divergence
-    shifting = p%shifting
-    renormalise = p%renormalise
-    read(text, nml=numerics, iostat=ios, iomsg=iomsg)
-    if (ios /= 0) return
-    p%kernel = kernel
-    p%integrator = integrator
-    p%cfl = cfl
-    p%cfl_force = cfl_force
-    p%cfl_visc = cfl_visc
-    p%viscosity = viscosity
-    p%alpha = alpha
-    p%diffusion = diffusion
-    p%delta = delta
-    p%skin = skin
-    p%tensile = tensile
-    p%tensile_eps = tensile_eps
-    p%tensile_n = tensile_n
-    p%pressure_gradient = pressure_gradient
-    p%divergence = divergence
-    p%shifting = shifting
-    p%renormalise = renormalise
-  end subroutine read_numerics
-
-  subroutine read_output(text, p, ios, iomsg)
-    character(len=*), intent(in) :: text
-    type(output_params_t), intent(inout) :: p
-    integer, intent(out) :: ios
-    character(len=*), intent(inout) :: iomsg
-    ! Wider than p%dir so that gfortran does not warn of truncation; the
-    ! extra character p%dir keeps is enough for validate to see the excess.
-    character(len=4 * DIR_LEN_MAX) :: dir
-    real(wp) :: dt, probes(3, MAX_PROBES)
-    integer :: probe_every, n_probes
-    logical :: snapshots
-    namelist /output/ dir, dt, probe_every, snapshots, n_probes, probes
-    dir = p%dir
-    dt = p%dt
-    probe_every = p%probe_every
-    snapshots = p%snapshots
-    n_probes = p%n_probes
-    probes = p%probes
-    read(text, nml=output, iostat=ios, iomsg=iomsg)
-    if (ios /= 0) return
-    p%dir = dir(1:len(p%dir))
-    p%dt = dt
-    p%probe_every = probe_every
-    p%snapshots = snapshots
-    p%n_probes = n_probes
-    p%probes = probes
-  end subroutine read_output
-
-  subroutine read_parallel(text, p, ios, iomsg)
-    character(len=*), intent(in) :: text
-    type(parallel_params_t), intent(inout) :: p
-    integer, intent(out) :: ios
-    character(len=*), intent(inout) :: iomsg
-    character(len=NAME_LEN) :: decomposition, balance
-    real(wp) :: imbalance_threshold
-    namelist /parallel/ decomposition, balance, imbalance_threshold
-    decomposition = p%decomposition
-    balance = p%balance
-    imbalance_threshold = p%imbalance_threshold
-    read(text, nml=parallel, iostat=ios, iomsg=iomsg)
-    if (ios /= 0) return
-    p%decomposition = lower(decomposition)
-    p%balance = lower(balance)
-    p%imbalance_threshold = imbalance_threshold
-  end subroutine read_parallel
 
   ! ------------------------------------------------------------------------
   ! Checks
@@ -1051,110 +879,27 @@ contains
     real(wp), intent(out) :: x
     integer :: k
     x = 0
-    text = ''
     k = case_of_group(c, v%group)
     if (k > 0) then
       text = c%cases(k)%c%value_text(trim(v%name))
-      if (v%dims(1) == 0 .and. (v%type == T_INT .or. v%type == T_REAL)) read(text, *) x
-      return
+    else
+      select case (generic_group(c, v%group))
+      case (G_RUN)
+        text = c%run%value_text(trim(v%name))
+      case (G_PARTICLES)
+        text = c%particles%value_text(trim(v%name))
+      case (G_PHYSICS)
+        text = c%physics%value_text(trim(v%name))
+      case (G_NUMERICS)
+        text = c%numerics%value_text(trim(v%name))
+      case (G_OUTPUT)
+        text = c%output%value_text(trim(v%name))
+      case default
+        text = c%parallel%value_text(trim(v%name))
+      end select
     end if
-    call generic_value(c, key(v), text, x)
-    if (v%dims(1) == 0) then
-      if (v%type == T_INT) text = int_str(nint(x))
-      if (v%type == T_REAL) text = real_str(x)
-    end if
+    if (v%dims(1) == 0 .and. (v%type == T_INT .or. v%type == T_REAL)) read(text, *) x
   end subroutine get_value
-
-  !> The value of the generic variable `k` (group.name) as get_value gives it.
-  subroutine generic_value(c, k, text, x)
-    type(config_t), intent(in) :: c
-    character(len=*), intent(in) :: k
-    character(len=:), allocatable, intent(inout) :: text
-    real(wp), intent(inout) :: x
-    select case (k)
-    case ('run.case')
-      text = quoted(c%run%case_name)
-    case ('run.t_end')
-      x = c%run%t_end
-    case ('run.max_steps')
-      x = real(c%run%max_steps, wp)
-    case ('run.progress_interval')
-      x = c%run%progress_interval
-    case ('particles.n')
-      x = real(c%particles%n, wp)
-    case ('particles.placement')
-      text = quoted(c%particles%placement)
-    case ('particles.h_over_dx')
-      x = c%particles%h_over_dx
-    case ('particles.pack_iterations')
-      x = real(c%particles%pack_iterations, wp)
-    case ('particles.from')
-      text = quoted(c%particles%from)
-    case ('physics.rho0')
-      x = c%physics%rho0
-    case ('physics.c0')
-      x = c%physics%c0
-    case ('physics.eos')
-      text = quoted(c%physics%eos)
-    case ('physics.gamma')
-      x = c%physics%gamma
-    case ('numerics.kernel')
-      text = quoted(c%numerics%kernel)
-    case ('numerics.integrator')
-      text = quoted(c%numerics%integrator)
-    case ('numerics.cfl')
-      x = c%numerics%cfl
-    case ('numerics.cfl_force')
-      x = c%numerics%cfl_force
-    case ('numerics.cfl_visc')
-      x = c%numerics%cfl_visc
-    case ('numerics.viscosity')
-      text = quoted(c%numerics%viscosity)
-    case ('numerics.alpha')
-      x = c%numerics%alpha
-    case ('numerics.diffusion')
-      text = quoted(c%numerics%diffusion)
-    case ('numerics.delta')
-      x = c%numerics%delta
-    case ('numerics.skin')
-      x = c%numerics%skin
-    case ('numerics.tensile')
-      text = merge('.true. ', '.false.', c%numerics%tensile)
-      text = trim(text)
-    case ('numerics.tensile_eps')
-      x = c%numerics%tensile_eps
-    case ('numerics.tensile_n')
-      x = real(c%numerics%tensile_n, wp)
-    case ('numerics.pressure_gradient')
-      text = quoted(c%numerics%pressure_gradient)
-    case ('numerics.renormalise')
-      text = quoted(c%numerics%renormalise)
-    case ('numerics.divergence')
-      text = quoted(c%numerics%divergence)
-    case ('numerics.shifting')
-      text = merge('.true. ', '.false.', c%numerics%shifting)
-      text = trim(text)
-    case ('output.dir')
-      text = quoted(c%output%dir)
-    case ('output.dt')
-      x = c%output%dt
-    case ('output.probe_every')
-      x = real(c%output%probe_every, wp)
-    case ('output.snapshots')
-      text = merge('.true. ', '.false.', c%output%snapshots)
-      text = trim(text)
-    case ('output.n_probes')
-      x = real(c%output%n_probes, wp)
-    case ('run.restart')
-      text = quoted(c%run%restart)
-    case ('parallel.decomposition')
-      text = quoted(c%parallel%decomposition)
-    case ('parallel.balance')
-      text = quoted(c%parallel%balance)
-    case ('parallel.imbalance_threshold')
-      x = c%parallel%imbalance_threshold
-    end select
-  end subroutine generic_value
 
   ! ------------------------------------------------------------------------
   ! Messages
