@@ -964,14 +964,14 @@ contains
   !> Every group: the generic ones with each case's own group before &parallel.
   subroutine list_groups(groups)
     type(group_t), allocatable, intent(out) :: groups(:)
-    type(case_slot_t), allocatable :: cases(:)
+    type(config_t) :: defaults   ! not a local array of cases: gfortran -Wall warns falsely
     character(len=:), allocatable :: name
     integer :: k
-    call register_cases(cases)
+    call register_cases(defaults%cases)
     groups = GENERIC_GROUPS(1:N_BEFORE_CASES)
-    do k = 1, size(cases)
-      name = trim(cases(k)%c%name)
-      groups = [groups, group_t(name, trim(cases(k)%c%help) // &
+    do k = 1, size(defaults%cases)
+      name = trim(defaults%cases(k)%c%name)
+      groups = [groups, group_t(name, trim(defaults%cases(k)%c%help) // &
                                 ', used when run.case = ''' // name // '''')]
     end do
     groups = [groups, GENERIC_GROUPS(N_BEFORE_CASES + 1:)]
@@ -981,17 +981,17 @@ contains
   subroutine list_vars(vars)
     type(var_t), allocatable, intent(out) :: vars(:)
     type(var_t), allocatable :: more(:)
-    type(case_slot_t), allocatable :: cases(:)
+    type(config_t) :: defaults   ! not a local array of cases: gfortran -Wall warns falsely
     integer :: k
-    call register_cases(cases)
+    call register_cases(defaults%cases)
     vars = pack(GENERIC_VARS, GENERIC_VARS%group <= N_BEFORE_CASES)
-    do k = 1, size(cases)
-      more = cases(k)%c%vars()
+    do k = 1, size(defaults%cases)
+      more = defaults%cases(k)%c%vars()
       more%group = N_BEFORE_CASES + k
       vars = [vars, more]
     end do
     more = pack(GENERIC_VARS, GENERIC_VARS%group > N_BEFORE_CASES)
-    more%group = more%group + size(cases)
+    more%group = more%group + size(defaults%cases)
     vars = [vars, more]
   end subroutine list_vars
 
@@ -1023,12 +1023,12 @@ contains
 
   function case_names() result(names)
     character(len=NAME_LEN), allocatable :: names(:)
-    type(case_slot_t), allocatable :: cases(:)
+    type(config_t) :: defaults   ! not a local array of cases: gfortran -Wall warns falsely
     integer :: k
-    call register_cases(cases)
-    allocate(names(size(cases)))
-    do k = 1, size(cases)
-      names(k) = cases(k)%c%name
+    call register_cases(defaults%cases)
+    allocate(names(size(defaults%cases)))
+    do k = 1, size(defaults%cases)
+      names(k) = defaults%cases(k)%c%name
     end do
   end function case_names
 
