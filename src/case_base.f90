@@ -1,17 +1,20 @@
-!> The interface every prototype problem implements: its initial particles,
+!> The interface every prototype problem implements: its own namelist group
+!> (the rows describing its variables, their reader, their values and the
+!> rules between them, its largest initial speed), its initial particles,
 !> the time-series columns and snapshot fields it adds (typically its exact
 !> or reference solution and the errors against it), and its closing summary.
 !> A new case is a new module extending case_t plus one line in case_factory.
 module case_base
   use kinds, only: wp
-  use config, only: config_t
+  use input_var, only: var_t
+  use input_params, only: particles_params_t, physics_params_t, numerics_params_t
   use eos, only: eos_t
   use kernels, only: kernel_t
   use particles, only: particles_t
   use parallel_env, only: parallel_env_t
   implicit none
   private
-  public :: case_t, case_fields_t
+  public :: case_t, case_fields_t, case_slot_t
 
   !> Extra per-particle snapshot fields and root attributes of a case.
   type :: case_fields_t
@@ -23,6 +26,10 @@ module case_base
   end type case_fields_t
 
   type, abstract :: case_t
+    character(len=32) :: name = ''       !< the value of run.case and the name of its group
+    character(len=60) :: help = ''       !< what the case is, e.g. 'the rotating square patch (2D)'
+    !> why placement = 'packed' cannot serve the case, '' if it can
+    character(len=60) :: no_packing = 'it has no packing'
     integer :: dim = 2
     !> > 0: the set-up placed a first guess to be relaxed by the packing
     !> (doc/packing.md) in the ball of this radius, after which
@@ -30,6 +37,11 @@ module case_base
     real(wp) :: pack_radius = 0
   contains
     procedure :: initial_state => no_initial_state
+    procedure(vars_i), deferred :: vars
+    procedure(read_group_i), deferred :: read_group
+    procedure(value_text_i), deferred :: value_text
+    procedure :: check => no_check
+    procedure(max_speed_i), deferred :: max_speed
     procedure(setup_i), deferred :: setup
     procedure(columns_i), deferred :: columns
     procedure(sample_i), deferred :: sample
@@ -37,12 +49,55 @@ module case_base
     procedure(summary_i), deferred :: summary
   end type case_t
 
+  !> One case of a list of cases of different types.
+  type :: case_slot_t
+    class(case_t), allocatable :: c
+  end type case_slot_t
+
   abstract interface
-    !> Places the particles and sets their initial state; dx is the spacing.
-    subroutine setup_i(self, cfg, eos, parts, dx)
-      import :: case_t, config_t, eos_t, particles_t, wp
+    !> The rows describing the variables of the case's group (group = 0).
+    function vars_i(self) result(vars)
+      import :: case_t, var_t
+      class(case_t), intent(in) :: self
+      type(var_t), allocatable :: vars(:)
+    end function vars_i
+
+    !> Reads namelist text '&name item /' of the case's group into self;
+    !> changes nothing if the read fails (ios /= 0, iomsg says why).
+    subroutine read_group_i(self, text, ios, iomsg)
+      import :: case_t
       class(case_t), intent(inout) :: self
-      type(config_t), intent(in) :: cfg
+      character(len=*), intent(in) :: text
+      integer, intent(out) :: ios
+      character(len=*), intent(inout) :: iomsg
+    end subroutine read_group_i
+
+    !> The value of the group's variable `name` as namelist text that reads
+    !> back exactly (input_text: real_str, real_list, quoted).
+    function value_text_i(self, name) result(text)
+      import :: case_t
+      class(case_t), intent(in) :: self
+      character(len=*), intent(in) :: name
+      character(len=:), allocatable :: text
+    end function value_text_i
+
+    !> The largest initial speed and how it follows from the group, e.g.
+    !> '&circle2d a0 radius' (c0 must be several times larger).
+    subroutine max_speed_i(self, speed, formula)
+      import :: case_t, wp
+      class(case_t), intent(in) :: self
+      real(wp), intent(out) :: speed
+      character(len=:), allocatable, intent(out) :: formula
+    end subroutine max_speed_i
+
+    !> Places the particles and sets their initial state; dx is the spacing.
+    subroutine setup_i(self, particles, physics, numerics, eos, parts, dx)
+      import :: case_t, particles_params_t, physics_params_t, numerics_params_t, eos_t, &
+                particles_t, wp
+      class(case_t), intent(inout) :: self
+      type(particles_params_t), intent(in) :: particles
+      type(physics_params_t), intent(in) :: physics
+      type(numerics_params_t), intent(in) :: numerics
       type(eos_t), intent(in) :: eos
       type(particles_t), intent(inout) :: parts
       real(wp), intent(out) :: dx
@@ -88,6 +143,18 @@ module case_base
   end interface
 
 contains
+
+  !> The rules between the variables of the group that their ranges cannot
+  !> say: var = '' if they hold, else the variable at fault, what is wrong
+  !> ('rates = ... sum to ...') and a hint.  None by default.
+  subroutine no_check(self, var, what, hint)
+    class(case_t), intent(in) :: self
+    character(len=:), allocatable, intent(out) :: var, what, hint
+    var = ''
+    what = ''
+    hint = ''
+    if (.false.) var = self%name
+  end subroutine no_check
 
   !> The state at the current positions of particles of volume m/rho and
   !> spacing dx, for cases that pack (none here).

@@ -23,7 +23,7 @@
 module case_square
   use kinds, only: wp, pi
   use case_base, only: case_t, case_fields_t
-  use config, only: config_t
+  use input_params, only: particles_params_t, physics_params_t, numerics_params_t
   use kernels, only: kernel_t, kernel_init, kernel_kind_of
   use particles, only: particles_t, particles_allocate
   use eos, only: eos_t, eos_density
@@ -37,7 +37,7 @@ module case_square
   use, intrinsic :: ieee_arithmetic, only: ieee_is_nan
   implicit none
   private
-  public :: square_patch_t, vortical_velocity, vortical_vorticity
+  public :: square_patch_t, vortical_velocity, vortical_vorticity, SQ_ROTATION, SQ_VORTICAL
 
   integer, parameter :: SQ_ROTATION = 1, SQ_VORTICAL = 2
 
@@ -57,7 +57,8 @@ module case_square
   real(wp), parameter :: TOPOLOGY_INTERVAL = 0.01_wp
 
   !> A square patch, its reference values and the running diagnostics.
-  type, extends(case_t) :: square_patch_t
+  !> kind, side and rate are set by the concrete case.
+  type, abstract, extends(case_t) :: square_patch_t
     integer :: kind = SQ_ROTATION
     real(wp) :: side = 1, rate = 1      !< L; omega (rotation) or V0 (vortical)
     real(wp) :: rho0 = 1, c0 = 10, dx = 1
@@ -96,9 +97,11 @@ contains
   !> sets u from the case's field, p from the Poisson solution, rho from the
   !> inverse equation of state and m = rho dx^2.  particles.placement is
   !> not used: the squares are always on a lattice.
-  subroutine square_setup(self, cfg, eos, parts, dx)
+  subroutine square_setup(self, particles, physics, numerics, eos, parts, dx)
     class(square_patch_t), intent(inout) :: self
-    type(config_t), intent(in) :: cfg
+    type(particles_params_t), intent(in) :: particles
+    type(physics_params_t), intent(in) :: physics
+    type(numerics_params_t), intent(in) :: numerics
     type(eos_t), intent(in) :: eos
     type(particles_t), intent(inout) :: parts
     real(wp), intent(out) :: dx
@@ -107,19 +110,10 @@ contains
     real(wp) :: x, y, p
     integer :: i, j, id, ng, kind
     self%dim = 2
-    self%rho0 = cfg%physics%rho0
-    self%c0 = cfg%physics%c0
-    if (cfg%run%case_name == 'square_vortical') then
-      self%kind = SQ_VORTICAL
-      self%side = cfg%square_vortical%side
-      self%rate = cfg%square_vortical%v0
-    else
-      self%kind = SQ_ROTATION
-      self%side = cfg%square_rotation%side
-      self%rate = cfg%square_rotation%omega
-    end if
+    self%rho0 = physics%rho0
+    self%c0 = physics%c0
     associate(l => self%side, rate => self%rate, rho0 => self%rho0, ns => self%n_side)
-    ns = max(4, nint(sqrt(real(cfg%particles%n, wp))))
+    ns = max(4, nint(sqrt(real(particles%n, wp))))
     dx = l / ns
     self%dx = dx
     self%n_global = ns**2
@@ -184,8 +178,8 @@ contains
     end associate
     end associate
 
-    kind = kernel_kind_of(trim(cfg%numerics%kernel))
-    self%kernel = kernel_init(kind, 2, cfg%particles%h_over_dx * dx)
+    kind = kernel_kind_of(trim(numerics%kernel))
+    self%kernel = kernel_init(kind, 2, particles%h_over_dx * dx)
   end subroutine square_setup
 
   !> f'(s) for f(s) = exp(-(4 s/L)^2).
@@ -272,7 +266,7 @@ contains
   !> Appends (t, p) to the centre-pressure history (a NaN, no particle near
   !> the centre, is left out).
   subroutine record(self, t, p)
-    type(square_patch_t), intent(inout) :: self
+    class(square_patch_t), intent(inout) :: self
     real(wp), intent(in) :: t, p
     real(wp), allocatable :: tmp(:)
     if (ieee_is_nan(p)) return
@@ -415,7 +409,7 @@ contains
   !> of the recorded p_A over t0 <= t <= t1; 0 unless the record covers the
   !> window with at least 32 samples.
   function window_frequency(self, t0, t1) result(freq)
-    type(square_patch_t), intent(in) :: self
+    class(square_patch_t), intent(in) :: self
     real(wp), intent(in) :: t0, t1
     real(wp) :: freq, eps
     integer :: i0, i1

@@ -1,6 +1,7 @@
 !> Prototype problem 1: the stretching free-surface circular patch (2D,
 !> `circle2d`) and sphere (3D, `ellipsoid3d`), with the exact solution X1
-!> recorded beside the SPH values.
+!> recorded beside the SPH values.  This is what the two cases share; their
+!> own groups are in case_circle2d and case_ellipsoid3d.
 !>
 !> Initial state (paper eq. 1, doc/theory.md X1): u_k = alpha_k x_k,
 !> p = P(0) (1 - |x|^2/R^2), rho from the inverse equation of state,
@@ -8,7 +9,7 @@
 module case_stretching
   use kinds, only: wp
   use case_base, only: case_t, case_fields_t
-  use config, only: config_t
+  use input_params, only: particles_params_t, physics_params_t, numerics_params_t
   use kernels, only: kernel_t, kernel_init, kernel_kind_of
   use flow_diagnostics, only: free_surface_lambda
   use particles, only: particles_t, particles_allocate
@@ -26,7 +27,8 @@ module case_stretching
   public :: stretching_t
 
   !> The case, its exact solution and the running means of its errors.
-  type, extends(case_t) :: stretching_t
+  !> radius, a0, rates and prepared are set by the concrete case.
+  type, abstract, extends(case_t) :: stretching_t
     real(wp) :: radius = 1, a0 = 1, rho0 = 1
     real(wp) :: rates(3) = 0            !< alpha_k(0) / A0
     real(wp) :: p0 = 0                  !< P(0), exact centre pressure at t = 0
@@ -52,17 +54,18 @@ module case_stretching
 contains
 
   !> Places the particles and sets their initial state (one rank holds all
-  !> until the domain decomposition distributes them).  circle2d: rates
-  !> (-1, 1); ellipsoid3d: &ellipsoid3d rates, in units of A0.
-  subroutine stretching_setup(self, cfg, eos, parts, dx)
+  !> until the domain decomposition distributes them).
+  subroutine stretching_setup(self, particles, physics, numerics, eos, parts, dx)
     class(stretching_t), intent(inout) :: self
-    type(config_t), intent(in) :: cfg
+    type(particles_params_t), intent(in) :: particles
+    type(physics_params_t), intent(in) :: physics
+    type(numerics_params_t), intent(in) :: numerics
     type(eos_t), intent(in) :: eos
     type(particles_t), intent(inout) :: parts
     real(wp), intent(out) :: dx
     real(wp), allocatable :: x(:, :), vol(:)
     integer :: i, np, place
-    select case (cfg%particles%placement)
+    select case (particles%placement)
     case ('lattice')
       place = PLACE_LATTICE
     case ('packed')
@@ -70,24 +73,11 @@ contains
     case default
       place = PLACE_RINGS
     end select
-    self%rho0 = cfg%physics%rho0
-    self%rates = 0
-    if (cfg%run%case_name == 'ellipsoid3d') then
-      self%dim = 3
-      self%radius = cfg%ellipsoid3d%radius
-      self%a0 = cfg%ellipsoid3d%a0
-      self%rates = cfg%ellipsoid3d%rates
-      self%prepared = cfg%ellipsoid3d%prepared
-    else
-      self%dim = 2
-      self%radius = cfg%circle2d%radius
-      self%a0 = cfg%circle2d%a0
-      self%rates(1:2) = [-1.0_wp, 1.0_wp]
-    end if
+    self%rho0 = physics%rho0
     call ellipse_exact_init(self%ex, self%dim, self%rho0, self%radius, &
                             self%a0 * self%rates(1:self%dim))
     self%p0 = ellipse_centre_pressure(self%ex)
-    dx = ball_spacing(self%dim, self%radius, cfg%particles%n, place)
+    dx = ball_spacing(self%dim, self%radius, particles%n, place)
     call place_ball(self%dim, self%radius, dx, place, x, vol)
     np = size(vol)
     ! packed: equal volumes |Omega|/N, dx the spacing that goes with them
@@ -103,8 +93,8 @@ contains
       parts%rho(i) = 1
       parts%id(i) = i
     end do
-    self%h_over_dx = cfg%particles%h_over_dx
-    self%kernel%kind = kernel_kind_of(trim(cfg%numerics%kernel))
+    self%h_over_dx = particles%h_over_dx
+    self%kernel%kind = kernel_kind_of(trim(numerics%kernel))
     call stretching_initial_state(self, eos, dx, parts)
   end subroutine stretching_setup
 

@@ -12,330 +12,45 @@
 !> Overrides go through the same item reader.  No output here: config_load
 !> returns ok and one message; every rank reads the same file the same way.
 module config
-  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use kinds, only: wp, i8
+  use input_text, only: fail, closest, allowed_words, quoted_list, quoted, shown_value, &
+                        unquoted, value_is_bare, base_name, word_at, name_end_at, lower, pad, &
+                        int_str, num_str, real_list, real_str
+  use namelist_scan, only: load_text, find_group_end, split_items
+  use input_var, only: var_t, T_INT, T_REAL, T_STRING, T_LOGICAL, LO_NONE, LO_GT, LO_GE, &
+                       HI_NONE, HI_LT, HI_LE, CH_NONE
+  use input_params, only: run_params_t, particles_params_t, physics_params_t, &
+                          numerics_params_t, output_params_t, parallel_params_t, NAME_LEN, &
+                          DIR_LEN_MAX, MAX_PROBES, group_t, GENERIC_GROUPS, GENERIC_VARS, &
+                          G_RUN, G_PARTICLES, G_PHYSICS, G_NUMERICS, G_OUTPUT, CH_CASE, word_list
+  use case_base, only: case_t, case_slot_t
+  use case_factory, only: register_cases
   implicit none
   private
   public :: config_t, run_params_t, particles_params_t, physics_params_t, &
-            numerics_params_t, output_params_t, circle2d_params_t, ellipsoid3d_params_t, &
-            square_rotation_params_t, square_vortical_params_t, parallel_params_t
-  public :: config_load, config_write_defaults, config_echo, config_write_help, config_dim
-  public :: case_t, CASES, NAME_LEN, DIR_LEN_MAX, MAX_PROBES
+            numerics_params_t, output_params_t, parallel_params_t
+  public :: config_load, config_defaults, config_write_defaults, config_echo, &
+            config_write_help, config_dim, config_case
+  public :: NAME_LEN, DIR_LEN_MAX, MAX_PROBES
 
-  integer, parameter :: NAME_LEN = 32      !< length of the word-valued variables
-  integer, parameter :: DIR_LEN_MAX = 255  !< longest output.dir allowed
-  integer, parameter :: MAX_PROBES = 16    !< size of output.probes(3, :)
-
-  !> A test case: its name (the value of run.case and the name of its own
-  !> namelist group) and its dimension.
-  type :: case_t
-    character(len=NAME_LEN) :: name
-    integer :: dim
-  end type case_t
-
-  !> The cases.  To add one: a row here, its group (G_*, GROUPS, its params
-  !> type, a read_* routine, rows in VARS) and its branch in case_speed.
-  type(case_t), parameter :: CASES(*) = [case_t('circle2d', 2), case_t('ellipsoid3d', 3), &
-                                         case_t('square_rotation', 2), &
-                                         case_t('square_vortical', 2)]
-
-  ! The allowed words of the word-valued variables.
-  character(len=NAME_LEN), parameter :: PLACEMENTS(*) = &
-    [character(len=NAME_LEN) :: 'rings', 'lattice', 'packed']
-  character(len=NAME_LEN), parameter :: EOS_NAMES(*) = &
-    [character(len=NAME_LEN) :: 'linear', 'tait']
-  character(len=NAME_LEN), parameter :: KERNEL_NAMES(*) = &
-    [character(len=NAME_LEN) :: 'wendland_c2', 'cubic_spline', 'gaussian']
-  character(len=NAME_LEN), parameter :: INTEGRATORS(*) = &
-    [character(len=NAME_LEN) :: 'rk4', 'pc2']
-  character(len=NAME_LEN), parameter :: VISCOSITIES(*) = &
-    [character(len=NAME_LEN) :: 'delta', 'monaghan', 'none']
-  character(len=NAME_LEN), parameter :: DIFFUSIONS(*) = &
-    [character(len=NAME_LEN) :: 'molteni', 'antuono', 'none']
-  character(len=NAME_LEN), parameter :: PRESSURE_GRADIENTS(*) = &
-    [character(len=NAME_LEN) :: 'standard', 'higher_order']
-  character(len=NAME_LEN), parameter :: RENORMALISE_WHEN(*) = &
-    [character(len=NAME_LEN) :: 'stage', 'step']
-  character(len=NAME_LEN), parameter :: DIVERGENCES(*) = &
-    [character(len=NAME_LEN) :: 'standard', 'renormalised']
-  character(len=NAME_LEN), parameter :: DECOMPOSITIONS(*) = &
-    [character(len=NAME_LEN) :: 'slab', 'metis']
-  character(len=NAME_LEN), parameter :: BALANCES(*) = &
-    [character(len=NAME_LEN) :: 'particles', 'pairs']
-
-  !> &run: what to run and for how long.
-  type :: run_params_t
-    character(len=NAME_LEN) :: case_name = 'circle2d'   !< namelist name: case
-    real(wp) :: t_end = 2.0_wp
-    integer :: max_steps = 0                             !< 0: no limit
-    real(wp) :: progress_interval = 5.0_wp               !< wall-clock seconds
-    character(len=DIR_LEN_MAX + 1) :: restart = ''       !< snapshot to continue from
-  end type run_params_t
-
-  !> &particles: the initial layout.
-  type :: particles_params_t
-    integer :: n = 20000                                 !< approximate count
-    character(len=NAME_LEN) :: placement = 'rings'
-    real(wp) :: h_over_dx = 2.0_wp
-    integer :: pack_iterations = 300                     !< doc/packing.md
-    character(len=DIR_LEN_MAX + 1) :: from = ''          !< snapshot of a packed distribution
-  end type particles_params_t
-
-  !> &physics: the fluid.
-  type :: physics_params_t
-    real(wp) :: rho0 = 1.0_wp
-    real(wp) :: c0 = 10.0_wp
-    character(len=NAME_LEN) :: eos = 'linear'
-    real(wp) :: gamma = 7.0_wp
-  end type physics_params_t
-
-  !> &numerics: discretisation and time stepping.
-  type :: numerics_params_t
-    character(len=NAME_LEN) :: kernel = 'wendland_c2'
-    character(len=NAME_LEN) :: integrator = 'rk4'
-    real(wp) :: cfl = 1.5_wp
-    real(wp) :: cfl_force = 0.25_wp
-    real(wp) :: cfl_visc = 0.125_wp
-    character(len=NAME_LEN) :: viscosity = 'delta'
-    real(wp) :: alpha = 0.01_wp
-    character(len=NAME_LEN) :: diffusion = 'molteni'
-    real(wp) :: delta = 0.1_wp
-    real(wp) :: skin = 0.3_wp                            !< in units of h
-    logical :: tensile = .false.                         !< (E7) tensile instability control
-    real(wp) :: tensile_eps = 0.4_wp                     !< measured best with wendland_c2, h = 2 dx
-    integer :: tensile_n = 4
-    !> (E4) or the higher-order form (H1, doc/theory.md)
-    character(len=NAME_LEN) :: pressure_gradient = 'standard'
-    character(len=NAME_LEN) :: renormalise = 'stage'     !< first pass every stage, or step
-    character(len=NAME_LEN) :: divergence = 'standard'   !< (E1), or renormalised (E3)
-    logical :: shifting = .false.                        !< (E8) particle shifting
-  end type numerics_params_t
-
-  !> &output: where and what to write.
-  type :: output_params_t
-    !> One character longer than allowed, so that a longer value is caught
-    !> rather than silently cut.
-    character(len=DIR_LEN_MAX + 1) :: dir = 'runs/circle2d'
-    real(wp) :: dt = 0.1_wp
-    integer :: probe_every = 1
-    logical :: snapshots = .true.
-    integer :: n_probes = 1
-    real(wp) :: probes(3, MAX_PROBES) = 0.0_wp           !< probe k at probes(:, k)
-  end type output_params_t
-
-  !> &circle2d: the stretching circular patch (2D).
-  type :: circle2d_params_t
-    real(wp) :: radius = 1.0_wp
-    real(wp) :: a0 = 1.0_wp
-  end type circle2d_params_t
-
-  !> &ellipsoid3d: the stretching sphere (3D).
-  type :: ellipsoid3d_params_t
-    real(wp) :: radius = 1.0_wp
-    real(wp) :: a0 = 1.0_wp
-    real(wp) :: rates(3) = [-1.0_wp, -1.0_wp, 2.0_wp]   !< in units of a0
-    logical :: prepared = .false.                        !< (I1) compressible start
-  end type ellipsoid3d_params_t
-
-  !> &square_rotation: the rotating square patch (2D).
-  type :: square_rotation_params_t
-    real(wp) :: side = 1.0_wp
-    real(wp) :: omega = 1.0_wp
-  end type square_rotation_params_t
-
-  !> &square_vortical: the vortical square patch (2D).
-  type :: square_vortical_params_t
-    real(wp) :: side = 1.0_wp
-    real(wp) :: v0 = 1.0_wp
-  end type square_vortical_params_t
-
-  !> &parallel: the domain decomposition across MPI ranks.
-  type :: parallel_params_t
-    character(len=NAME_LEN) :: decomposition = 'slab'
-    character(len=NAME_LEN) :: balance = 'particles'
-    real(wp) :: imbalance_threshold = 0.1_wp
-  end type parallel_params_t
-
-  !> The whole configuration; every component has its default.
+  !> The whole configuration.  The generic groups have their defaults; the
+  !> cases, each holding its own group, come from config_defaults or
+  !> config_load.
   type :: config_t
     type(run_params_t) :: run
     type(particles_params_t) :: particles
     type(physics_params_t) :: physics
     type(numerics_params_t) :: numerics
     type(output_params_t) :: output
-    type(circle2d_params_t) :: circle2d
-    type(ellipsoid3d_params_t) :: ellipsoid3d
-    type(square_rotation_params_t) :: square_rotation
-    type(square_vortical_params_t) :: square_vortical
     type(parallel_params_t) :: parallel
+    type(case_slot_t), allocatable :: cases(:)   !< every case of case_factory
   end type config_t
 
-  !> A namelist group: its name and a line saying what it is for.
-  type :: group_t
-    character(len=16) :: name
-    character(len=100) :: help
-  end type group_t
+  !> The cases' own groups go between &output and &parallel, where input
+  !> files have always had them (list_groups).
+  integer, parameter :: N_BEFORE_CASES = G_OUTPUT
 
-  integer, parameter :: G_RUN = 1, G_PARTICLES = 2, G_PHYSICS = 3, G_NUMERICS = 4, &
-                        G_OUTPUT = 5, G_CIRCLE2D = 6, G_ELLIPSOID3D = 7, &
-                        G_SQUARE_ROTATION = 8, G_SQUARE_VORTICAL = 9, G_PARALLEL = 10
-  type(group_t), parameter :: GROUPS(*) = [ &
-    group_t('run', 'what to run and for how long'), &
-    group_t('particles', 'the initial particle layout'), &
-    group_t('physics', 'the fluid'), &
-    group_t('numerics', 'SPH discretisation and time stepping'), &
-    group_t('output', 'run directory, snapshots, time series and pressure probes'), &
-    group_t('circle2d', 'the stretching circular patch (2D), used when run.case = ''circle2d'''), &
-    group_t('ellipsoid3d', 'the stretching sphere (3D), used when run.case = ''ellipsoid3d'''), &
-    group_t('square_rotation', &
-            'the rotating square patch (2D), used when run.case = ''square_rotation'''), &
-    group_t('square_vortical', &
-            'the vortical square patch (2D), used when run.case = ''square_vortical'''), &
-    group_t('parallel', 'the domain decomposition across MPI ranks (doc/parallel.md)')]
-
-  ! Variable types, bound rules and lists of allowed words for the table VARS.
-  integer, parameter :: T_INT = 1, T_REAL = 2, T_STRING = 3, T_LOGICAL = 4
-  integer, parameter :: LO_NONE = 0, LO_GT = 1, LO_GE = 2
-  integer, parameter :: HI_NONE = 0, HI_LT = 1, HI_LE = 2
-  integer, parameter :: CH_NONE = 0, CH_CASE = 1, CH_PLACEMENT = 2, CH_EOS = 3, &
-                        CH_KERNEL = 4, CH_INTEGRATOR = 5, CH_VISCOSITY = 6, CH_DIFFUSION = 7, &
-                        CH_DECOMPOSITION = 8, CH_BALANCE = 9, CH_PRESSURE_GRADIENT = 10, &
-                        CH_DIVERGENCE = 11, CH_RENORMALISE = 12
-  integer, parameter :: SCALAR(2) = [0, 0]
-
-  !> A variable of a group: the one place that says what it is and what is
-  !> allowed.  The range checks, the comments of the written files and the
-  !> help all come from here.
-  type :: var_t
-    integer :: group             !< index into GROUPS
-    character(len=20) :: name
-    integer :: type              !< T_*
-    integer :: dims(2)           !< array extents, SCALAR for a scalar
-    integer :: lo_rule, hi_rule  !< LO_*, HI_*: lo < x, lo <= x, x < hi, x <= hi
-    real(wp) :: lo, hi
-    integer :: choices           !< CH_*: the list of allowed words, CH_NONE if free
-    character(len=60) :: rule    !< what is allowed when no range or list says it
-    character(len=110) :: help   !< what the variable is
-  end type var_t
-
-  type(var_t), parameter :: VARS(*) = [ &
-    var_t(G_RUN, 'case', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_CASE, '', &
-          'the test case; its own group sets its geometry'), &
-    var_t(G_RUN, 't_end', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
-          'end time (read as t A0 with the non-dimensional defaults)'), &
-    var_t(G_RUN, 'max_steps', T_INT, SCALAR, LO_GE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
-          'stop after this many steps, 0 for no limit (a final snapshot is written then)'), &
-    var_t(G_RUN, 'progress_interval', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_NONE, '', 'wall-clock seconds between progress lines'), &
-    var_t(G_RUN, 'restart', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
-          'empty, or an existing snapshot file of the same case', &
-          'snapshot to continue the run from, e.g. runs/circle2d/snap_00010.h5 (empty: none)'), &
-    var_t(G_PARTICLES, 'n', T_INT, SCALAR, LO_GE, HI_LE, 50.0_wp, 2000000000.0_wp, CH_NONE, &
-          '', 'approximate number of particles; the spacing dx follows from it'), &
-    var_t(G_PARTICLES, 'placement', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_PLACEMENT, '', 'rings: concentric rings (shells); lattice: square (cubic) ' // &
-          'lattice clipped; packed: relaxed (doc/packing.md)'), &
-    var_t(G_PARTICLES, 'h_over_dx', T_REAL, SCALAR, LO_GE, HI_LE, 1.0_wp, 4.0_wp, CH_NONE, &
-          '', 'smoothing length h over particle spacing dx'), &
-    var_t(G_PARTICLES, 'pack_iterations', T_INT, SCALAR, LO_GE, HI_LE, 1.0_wp, 100000.0_wp, &
-          CH_NONE, '', 'most iterations of the packing (placement = ''packed'')'), &
-    var_t(G_PARTICLES, 'from', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
-          'empty, or a snapshot of a packed run of the same case', &
-          'snapshot whose initial positions are the packed particles (empty: pack anew)'), &
-    var_t(G_PHYSICS, 'rho0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
-          'reference density'), &
-    var_t(G_PHYSICS, 'c0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
-          'speed of sound; at least 3 times the largest initial speed of the case'), &
-    var_t(G_PHYSICS, 'eos', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_EOS, '', &
-          'equation of state: linear p = c0^2 (rho - rho0), ' // &
-          'tait p = rho0 c0^2/gamma ((rho/rho0)^gamma - 1)'), &
-    var_t(G_PHYSICS, 'gamma', T_REAL, SCALAR, LO_GE, HI_NONE, 1.0_wp, 0.0_wp, CH_NONE, '', &
-          'Tait exponent, used only by eos = ''tait'''), &
-    var_t(G_NUMERICS, 'kernel', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_KERNEL, '', 'smoothing kernel (the Gaussian is truncated at 3h)'), &
-    var_t(G_NUMERICS, 'integrator', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_INTEGRATOR, '', 'rk4: classical 4th-order Runge-Kutta; ' // &
-          'pc2: 2-stage predictor-corrector'), &
-    var_t(G_NUMERICS, 'cfl', T_REAL, SCALAR, LO_GT, HI_LE, 0.0_wp, 3.0_wp, CH_NONE, '', &
-          'acoustic CFL number: dt <= cfl h / (c0 + Umax)'), &
-    var_t(G_NUMERICS, 'cfl_force', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
-          '', 'force condition: dt <= cfl_force sqrt(h / max|a|)'), &
-    var_t(G_NUMERICS, 'cfl_visc', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
-          '', 'viscous condition: dt <= cfl_visc h^2 / nu'), &
-    var_t(G_NUMERICS, 'viscosity', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_VISCOSITY, '', 'artificial viscosity: delta (delta-SPH form alpha h c0 rho0 ...), ' &
-          // 'monaghan, or none'), &
-    var_t(G_NUMERICS, 'alpha', T_REAL, SCALAR, LO_GE, HI_LE, 0.0_wp, 1.0_wp, CH_NONE, '', &
-          'artificial viscosity coefficient'), &
-    var_t(G_NUMERICS, 'diffusion', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_DIFFUSION, '', 'density diffusion: molteni (delta-SPH without gradient ' // &
-          'correction), antuono (with it), or none'), &
-    var_t(G_NUMERICS, 'delta', T_REAL, SCALAR, LO_GE, HI_LE, 0.0_wp, 1.0_wp, CH_NONE, '', &
-          'density diffusion coefficient'), &
-    var_t(G_NUMERICS, 'skin', T_REAL, SCALAR, LO_GE, HI_LE, 0.0_wp, 2.0_wp, CH_NONE, '', &
-          'smallest neighbour-list skin in units of h (widened when a step needs more)'), &
-    var_t(G_NUMERICS, 'tensile', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_NONE, '', 'tensile instability control (Monaghan 2000): a repulsion ' // &
-          'between particles under negative pressure'), &
-    var_t(G_NUMERICS, 'tensile_eps', T_REAL, SCALAR, LO_GT, HI_LE, 0.0_wp, 1.0_wp, CH_NONE, &
-          '', 'tensile control strength: R_i = tensile_eps |p_i|/rho_i^2 where p_i < 0'), &
-    var_t(G_NUMERICS, 'tensile_n', T_INT, SCALAR, LO_GE, HI_LE, 1.0_wp, 8.0_wp, CH_NONE, &
-          '', 'tensile control exponent n of (W_ij/W(dx))^n'), &
-    var_t(G_NUMERICS, 'pressure_gradient', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, &
-          0.0_wp, CH_PRESSURE_GRADIENT, '', 'standard: the (p_i + p_j) form; higher_order: ' // &
-          'the renormalised (p_j - p_i) form away from the free surface'), &
-    var_t(G_NUMERICS, 'divergence', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_DIVERGENCE, '', 'velocity divergence of the continuity equation: standard, ' // &
-          'or renormalised (exact for linear u)'), &
-    var_t(G_NUMERICS, 'renormalise', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_RENORMALISE, '', 'L_i and lambda_i of the renormalised operators at every ' // &
-          'stage, or once a step (doc/numerics.md)'), &
-    var_t(G_NUMERICS, 'shifting', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_NONE, '', 'particle shifting after each step (delta-plus-SPH, Sun et al. ' // &
-          '2017), none on the free surface'), &
-    var_t(G_OUTPUT, 'dir', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
-          'a non-empty path of at most 255 characters', 'run directory'), &
-    var_t(G_OUTPUT, 'dt', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
-          'snapshot interval (a snapshot is always written at t = 0 and at the end)'), &
-    var_t(G_OUTPUT, 'probe_every', T_INT, SCALAR, LO_GE, HI_NONE, 1.0_wp, 0.0_wp, CH_NONE, &
-          '', 'a time-series row every this many steps'), &
-    var_t(G_OUTPUT, 'snapshots', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_NONE, '', 'write HDF5 snapshots at all'), &
-    var_t(G_OUTPUT, 'n_probes', T_INT, SCALAR, LO_GE, HI_LE, 0.0_wp, real(MAX_PROBES, wp), &
-          CH_NONE, '', 'number of pressure probes'), &
-    var_t(G_OUTPUT, 'probes', T_REAL, [3, MAX_PROBES], LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_NONE, 'finite numbers', &
-          'probe k at probes(1:3,k); the third component is ignored in 2D'), &
-    var_t(G_CIRCLE2D, 'radius', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
-          'radius R of the initial disc'), &
-    var_t(G_CIRCLE2D, 'a0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
-          'A0: initial velocity u = -A0 x, v = A0 y'), &
-    var_t(G_ELLIPSOID3D, 'radius', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
-          '', 'radius R of the initial sphere'), &
-    var_t(G_ELLIPSOID3D, 'a0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
-          'A0: the unit of the rates'), &
-    var_t(G_ELLIPSOID3D, 'rates', T_REAL, [3, 0], LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
-          'summing to zero within 1e-12, not all zero', &
-          'initial velocity u_k = rates(k) A0 x_k (rates in units of A0)'), &
-    var_t(G_ELLIPSOID3D, 'prepared', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_NONE, '', 'add the compressible part of the start (I1, doc/numerics.md): ' // &
-          'no acoustic mode from P''(0)'), &
-    var_t(G_SQUARE_ROTATION, 'side', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_NONE, '', 'side L of the initial square, centred at the origin'), &
-    var_t(G_SQUARE_ROTATION, 'omega', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_NONE, '', 'omega: initial rigid rotation u = omega y, v = -omega x'), &
-    var_t(G_SQUARE_VORTICAL, 'side', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_NONE, '', 'side L of the initial square, centred at the origin'), &
-    var_t(G_SQUARE_VORTICAL, 'v0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
-          '', 'V0: initial u = V0 (f(y) - e^-4), v = -V0 (f(x) - e^-4), f(s) = exp(-(4s/L)^2)'), &
-    var_t(G_PARALLEL, 'decomposition', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_DECOMPOSITION, '', 'slabs along the longest axis, or a METIS partition of cells'), &
-    var_t(G_PARALLEL, 'balance', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_BALANCE, '', 'work measure for the balance: particle count or listed pairs'), &
-    var_t(G_PARALLEL, 'imbalance_threshold', T_REAL, SCALAR, LO_GT, HI_LE, 0.0_wp, 10.0_wp, &
-          CH_NONE, '', 're-balance when max/mean work exceeds 1 + this')]
-
-  real(wp), parameter :: RATES_SUM_TOL = 1.0e-12_wp   !< incompressibility of the rates
   real(wp), parameter :: MACH_FACTOR = 3.0_wp          !< c0 >= MACH_FACTOR * max initial speed
   real(wp), parameter :: RK4_CFL_MAX = 2.5_wp          !< stability limit of rk4 in cfl
   real(wp), parameter :: PC2_CFL_MAX = 1.0_wp          !< stability limit of pc2 in cfl
@@ -348,10 +63,6 @@ module config
     character(len=40) :: key   !< 'group.name'
     integer :: line
   end type origin_t
-
-  interface int_str
-    module procedure int_str_default, int_str_i8
-  end interface int_str
 
 contains
 
@@ -373,6 +84,7 @@ contains
     integer :: k
 
     ok = .false.
+    cfg = config_defaults()
     allocate(origins(0))
     call read_file(path, cfg, origins, errmsg)
     if (allocated(errmsg)) return
@@ -391,7 +103,7 @@ contains
   !> default, each with a comment saying what it is and what is allowed.
   subroutine config_write_defaults(unit)
     integer, intent(in) :: unit
-    call write_config(config_t(), unit, [character(len=80) :: &
+    call write_config(config_defaults(), unit, [character(len=80) :: &
       'sph input file: every group and variable at its default (sph --defaults).', &
       'Fortran namelist syntax: strings in quotes, ''!'' starts a comment; any', &
       'group or variable may be left out, and any variable can be set on the', &
@@ -413,22 +125,27 @@ contains
   !> default with what is allowed.
   subroutine config_write_help(unit)
     integer, intent(in) :: unit
+    type(group_t), allocatable :: groups(:)
+    type(var_t), allocatable :: vars(:)
     type(config_t) :: defaults
     character(len=:), allocatable :: text, lhs
     real(wp) :: x
     integer :: k
+    call list_groups(groups)
+    call list_vars(vars)
+    defaults = config_defaults()
     write(unit, '(a)') 'Input: a Fortran namelist file (doc/input.md) with the groups below;', &
       'any group or variable may be left out (defaults).  After the file, any number', &
       'of overrides group.variable=value, applied in order, e.g. numerics.cfl=0.5', &
       'output.dir=runs/x output.probes(1,2)=0.25 ellipsoid3d.rates=1,1,-2.', &
       'sph --defaults writes a complete input file with every default.', '', &
       'group.variable = default    allowed values'
-    do k = 1, size(VARS)
-      lhs = trim(GROUPS(VARS(k)%group)%name) // '.' // trim(VARS(k)%name)
-      if (VARS(k)%dims(2) > 0) lhs = lhs // '(1:3,k)'
-      call get_value(defaults, VARS(k), text, x)
-      if (VARS(k)%dims(2) > 0) text = real_list(defaults%output%probes(:, 1))
-      write(unit, '(a)') '  ' // pad(lhs // ' = ' // text, 40) // ' ' // allowed_text(VARS(k))
+    do k = 1, size(vars)
+      lhs = trim(groups(vars(k)%group)%name) // '.' // trim(vars(k)%name)
+      if (vars(k)%dims(2) > 0) lhs = lhs // '(1:3,k)'
+      call get_value(defaults, vars(k), text, x)
+      if (vars(k)%dims(2) > 0) text = real_list(defaults%output%probes(:, 1))
+      write(unit, '(a)') '  ' // pad(lhs // ' = ' // text, 40) // ' ' // allowed_text(vars(k))
     end do
   end subroutine config_write_help
 
@@ -437,10 +154,26 @@ contains
     type(config_t), intent(in) :: cfg
     integer :: k
     config_dim = 0
-    do k = 1, size(CASES)
-      if (CASES(k)%name == cfg%run%case_name) config_dim = CASES(k)%dim
-    end do
+    k = selected_case(cfg)
+    if (k > 0) config_dim = cfg%cases(k)%c%dim
   end function config_dim
+
+  !> The configuration with every default: the generic groups' and those of
+  !> every registered case.
+  function config_defaults() result(cfg)
+    type(config_t) :: cfg
+    call register_cases(cfg%cases)
+  end function config_defaults
+
+  !> The selected case (run.case) with its group's values, to set up the run.
+  subroutine config_case(cfg, c)
+    type(config_t), intent(in) :: cfg
+    class(case_t), allocatable, intent(out) :: c
+    integer :: k
+    k = selected_case(cfg)
+    if (k == 0) error stop 'config_case: unknown case (config_load rejects it)'
+    allocate(c, source=cfg%cases(k)%c)
+  end subroutine config_case
 
   ! ------------------------------------------------------------------------
   ! Reading the file
@@ -453,14 +186,17 @@ contains
     type(config_t), intent(inout) :: cfg
     type(origin_t), allocatable, intent(inout) :: origins(:)
     character(len=:), allocatable, intent(inout) :: err
+    type(group_t), allocatable :: groups(:)
     character(len=:), allocatable :: buf
     integer, allocatable :: line_of(:)
-    integer :: pos, name_end, term, term_len, g, first_line(size(GROUPS))
+    integer :: pos, name_end, term, term_len, g
+    integer, allocatable :: first_line(:)
     character(len=:), allocatable :: name
 
+    call list_groups(groups)
     call load_text(path, buf, line_of, err)
     if (allocated(err)) return
-    first_line = 0
+    allocate(first_line(size(groups)), source=0)
     pos = 1
     do
       ! Outside a group only blanks and '&name' may appear.
@@ -512,132 +248,6 @@ contains
     end do
   end subroutine read_file
 
-  !> The file as one string buf with comments blanked and each line end made
-  !> a blank; line_of(i) is the line of buf(i:i).
-  subroutine load_text(path, buf, line_of, err)
-    character(len=*), intent(in) :: path
-    character(len=:), allocatable, intent(out) :: buf
-    integer, allocatable, intent(out) :: line_of(:)
-    character(len=:), allocatable, intent(inout) :: err
-    character(len=:), allocatable :: line
-    character(len=512) :: iomsg
-    integer :: u, ios, nline
-    logical :: is_dir, quote_open
-
-    buf = ''
-    allocate(line_of(0))
-    if (len_trim(path) == 0) then
-      call fail(err, 'command line', 'no input file given', 0, &
-                ': give a namelist file, e.g. input/circle2d.nml')
-      return
-    end if
-    ! gfortran opens a directory without complaint and reads it as empty.
-    inquire(file=trim(path) // '/.', exist=is_dir)
-    if (is_dir) then
-      call fail(err, path, 'cannot open the file', 0, ': it is a directory')
-      return
-    end if
-    open(newunit=u, file=path, status='old', action='read', form='formatted', &
-         iostat=ios, iomsg=iomsg)
-    if (ios /= 0) then
-      call fail(err, path, 'cannot open the file', 0, ': ' // os_reason(iomsg))
-      return
-    end if
-    nline = 0
-    do
-      call read_line(u, line, ios, iomsg)
-      if (ios < 0) exit
-      if (ios > 0) then
-        call fail(err, path, 'cannot read the file', 0, ': ' // trim(iomsg))
-        close(u)
-        return
-      end if
-      nline = nline + 1
-      call strip_comment(line, quote_open)
-      if (quote_open) then
-        call fail(err, path, 'a quoted string is not closed', nline, &
-                  ': ' // trim(adjustl(line)))
-        close(u)
-        return
-      end if
-      buf = buf // line // ' '
-      line_of = [line_of, spread(nline, 1, len(line) + 1)]
-    end do
-    close(u)
-  end subroutine load_text
-
-  !> One line of any length; ios < 0 at the end of the file.
-  subroutine read_line(u, line, ios, iomsg)
-    integer, intent(in) :: u
-    character(len=:), allocatable, intent(out) :: line
-    integer, intent(out) :: ios
-    character(len=*), intent(inout) :: iomsg
-    character(len=1024) :: chunk
-    integer :: n
-    line = ''
-    do
-      read(u, '(a)', advance='no', iostat=ios, iomsg=iomsg, size=n) chunk
-      line = line // chunk(1:n)
-      if (ios /= 0) exit
-    end do
-    if (is_iostat_eor(ios)) ios = 0
-    ! A last line without a newline is still a line.
-    if (is_iostat_end(ios) .and. len(line) > 0) ios = 0
-  end subroutine read_line
-
-  !> Tabs and a trailing carriage return become blanks and a `!` comment is
-  !> blanked (quotes respected); quote_open if a quote is left open.
-  subroutine strip_comment(line, quote_open)
-    character(len=*), intent(inout) :: line
-    logical, intent(out) :: quote_open
-    character(len=1) :: quote, ch
-    integer :: i
-    quote = ' '
-    do i = 1, len(line)
-      ch = line(i:i)
-      if (ch == achar(9) .or. ch == achar(13)) line(i:i) = ' '
-      if (quote /= ' ') then
-        if (ch == quote) quote = ' '
-      else if (ch == '''' .or. ch == '"') then
-        quote = ch
-      else if (ch == '!') then
-        line(i:) = ' '
-        exit
-      end if
-    end do
-    quote_open = quote /= ' '
-  end subroutine strip_comment
-
-  !> The end of group body starting at buf(from:): term is the position of
-  !> its '/' (term_len 1) or '&end' (term_len 4); term_len = 0 if another
-  !> group starts first (term at its '&'); term = 0 if the file ends first.
-  subroutine find_group_end(buf, from, term, term_len)
-    character(len=*), intent(in) :: buf
-    integer, intent(in) :: from
-    integer, intent(out) :: term, term_len
-    character(len=1) :: quote, ch
-    integer :: i
-    term = 0
-    term_len = 0
-    quote = ' '
-    do i = from, len(buf)
-      ch = buf(i:i)
-      if (quote /= ' ') then
-        if (ch == quote) quote = ' '
-      else if (ch == '''' .or. ch == '"') then
-        quote = ch
-      else if (ch == '/') then
-        term = i
-        term_len = 1
-        return
-      else if (ch == '&') then
-        term = i
-        if (lower(buf(i + 1:name_end_at(buf, i + 1))) == 'end') term_len = 4
-        return
-      end if
-    end do
-  end subroutine find_group_end
-
   !> Reads the items of one group body (from the file) into cfg.
   subroutine read_group_body(g, body, line_of, path, cfg, origins, err)
     integer, intent(in) :: g
@@ -647,17 +257,19 @@ contains
     type(config_t), intent(inout) :: cfg
     type(origin_t), allocatable, intent(inout) :: origins(:)
     character(len=:), allocatable, intent(inout) :: err
+    type(group_t), allocatable :: groups(:)
     integer, allocatable :: starts(:), eqs(:)
     character(len=40), allocatable :: plain(:)
     integer, allocatable :: plain_line(:)
     character(len=:), allocatable :: name, value, reason, hint, head
     integer :: i, last, status, line, k
 
+    call list_groups(groups)
     call split_items(body, starts, eqs)
     last = len(body)
     if (size(starts) > 0) last = starts(1) - 1
     if (len_trim(body(1:last)) > 0) then
-      call fail(err, path, '&' // trim(GROUPS(g)%name) // ': ''' // trim(adjustl(body(1:last))) &
+      call fail(err, path, '&' // trim(groups(g)%name) // ': ''' // trim(adjustl(body(1:last))) &
                 // ''' is not of the form name = value', line_of(max(1, verify(body, ' '))), '')
       return
     end if
@@ -674,7 +286,7 @@ contains
           if (plain(k) == name) exit
         end do
         if (k > 0) then
-          call fail(err, path, '&' // trim(GROUPS(g)%name) // ' ' // name // ' is set twice', &
+          call fail(err, path, '&' // trim(groups(g)%name) // ' ' // name // ' is set twice', &
                     line, ': it was already set on line ' // int_str(plain_line(k)) // &
                     '; keep one')
           return
@@ -687,75 +299,14 @@ contains
         call fail(err, path, reason, line, hint)
         return
       else if (status == ITEM_FAILED) then
-        head = '&' // trim(GROUPS(g)%name) // ' ' // name
+        head = '&' // trim(groups(g)%name) // ' ' // name
         if (len(shown_value(value)) > 0) head = head // ' = ' // shown_value(value)
         call fail(err, path, head // ' ' // reason, line, hint)
         return
       end if
-      call set_origin(origins, trim(GROUPS(g)%name) // '.' // base_name(name), line)
+      call set_origin(origins, trim(groups(g)%name) // '.' // base_name(name), line)
     end do
   end subroutine read_group_body
-
-  !> The starts of the `name = value` items of a group body and the
-  !> positions of their '=': an item starts at the name before an '='
-  !> outside quotes (a name may carry an index, as in probes(1,2)).
-  subroutine split_items(body, starts, eqs)
-    character(len=*), intent(in) :: body
-    integer, allocatable, intent(out) :: starts(:), eqs(:)
-    character(len=1) :: quote, ch
-    integer :: i, j
-    allocate(starts(0), eqs(0))
-    quote = ' '
-    do i = 1, len(body)
-      ch = body(i:i)
-      if (quote /= ' ') then
-        if (ch == quote) quote = ' '
-      else if (ch == '''' .or. ch == '"') then
-        quote = ch
-      else if (ch == '=') then
-        j = name_start(body, i)
-        if (j > 0) then
-          starts = [starts, j]
-          eqs = [eqs, i]
-        end if
-      end if
-    end do
-  end subroutine split_items
-
-  !> Where the name before the '=' at body(eq:eq) starts, 0 if there is no
-  !> name (blanks and an index in parentheses may sit between).
-  integer function name_start(body, eq)
-    character(len=*), intent(in) :: body
-    integer, intent(in) :: eq
-    integer :: j, depth
-    name_start = 0
-    j = eq - 1
-    do while (j >= 1)
-      if (body(j:j) /= ' ') exit
-      j = j - 1
-    end do
-    if (j < 1) return
-    if (body(j:j) == ')') then
-      depth = 0
-      do while (j >= 1)
-        if (body(j:j) == ')') depth = depth + 1
-        if (body(j:j) == '(') depth = depth - 1
-        if (depth == 0) exit
-        j = j - 1
-      end do
-      j = j - 1
-      do while (j >= 1)
-        if (body(j:j) /= ' ') exit
-        j = j - 1
-      end do
-    end if
-    do while (j >= 1)
-      if (.not. is_name_char(body(j:j))) exit
-      j = j - 1
-    end do
-    if (j + 1 > len(body)) return
-    if (is_letter(body(j + 1:j + 1))) name_start = j + 1
-  end function name_start
 
   ! ------------------------------------------------------------------------
   ! Overrides
@@ -769,11 +320,13 @@ contains
     type(config_t), intent(inout) :: cfg
     type(origin_t), allocatable, intent(inout) :: origins(:)
     character(len=:), allocatable, intent(inout) :: err
+    type(var_t), allocatable :: vars(:)
     character(len=*), parameter :: ORIGIN = 'command line'
     character(len=:), allocatable :: ov, lhs, gname, name, value, reason, hint
     integer, allocatable :: starts(:), eqs(:)
     integer :: eq, dot, g, v, status
 
+    call list_vars(vars)
     ov = trim(adjustl(text))
     eq = index(ov, '=')
     if (eq == 0) then
@@ -799,7 +352,7 @@ contains
     end if
     v = var_index(g, base_name(name))
     if (v > 0) then
-      if (VARS(v)%type == T_STRING .and. len(value) > 0) then
+      if (vars(v)%type == T_STRING .and. len(value) > 0) then
         if (value(1:1) /= '''' .and. value(1:1) /= '"') value = quoted(value)
       end if
     end if
@@ -824,16 +377,20 @@ contains
   !> For an override without a group: the group.variable it probably meant.
   function group_guess(name, rest) result(s)
     character(len=*), intent(in) :: name, rest
+    type(group_t), allocatable :: groups(:)
+    type(var_t), allocatable :: vars(:)
     character(len=:), allocatable :: s
     integer :: k, found
+    call list_groups(groups)
+    call list_vars(vars)
     s = ''
     found = 0
-    do k = 1, size(VARS)
-      if (VARS(k)%name /= name) cycle
+    do k = 1, size(vars)
+      if (vars(k)%name /= name) cycle
       if (found > 0) return   ! in several groups: no single guess
       found = k
     end do
-    if (found > 0) s = ', e.g. ' // trim(GROUPS(VARS(found)%group)%name) // '.' // name // rest
+    if (found > 0) s = ', e.g. ' // trim(groups(vars(found)%group)%name) // '.' // name // rest
   end function group_guess
 
   ! ------------------------------------------------------------------------
@@ -850,6 +407,8 @@ contains
     type(config_t), intent(inout) :: c
     integer, intent(out) :: status
     character(len=:), allocatable, intent(out) :: reason, hint
+    type(group_t), allocatable :: groups(:)
+    type(var_t), allocatable :: vars(:)
     character(len=*), parameter :: NEUTRAL(4) = ['0  ', '0  ', "'' ", 'F  ']
     character(len=:), allocatable :: base, group
     type(config_t) :: trial
@@ -857,7 +416,9 @@ contains
     real(wp) :: x
     integer :: v, ios
 
-    group = trim(GROUPS(g)%name)
+    call list_groups(groups)
+    call list_vars(vars)
+    group = trim(groups(g)%name)
     base = base_name(name)
     hint = ''
     reason = ''
@@ -872,12 +433,12 @@ contains
     if (len_trim(shown_value(value)) == 0) then
       reason = 'has no value'
       hint = ': give one, or leave the variable out for its default (' // &
-             default_text(VARS(v)) // ')'
+             default_text(vars(v)) // ')'
       return
     end if
     ! '/' ends namelist input: numerics.cfl=1/2 would silently read 1.
     if (scan(unquoted(value), '/') > 0) then
-      reason = 'cannot be read as ' // type_text(VARS(v))
+      reason = 'cannot be read as ' // type_text(vars(v))
       hint = ': a ''/'' outside quotes ends the namelist input'
       return
     end if
@@ -889,24 +450,24 @@ contains
     ! Is the index at fault rather than the value?  Try a value that fits.
     if (index(name, '(') > 0) then
       trial = c
-      call read_group(g, '&' // group // ' ' // name // ' = ' // trim(NEUTRAL(VARS(v)%type)) &
+      call read_group(g, '&' // group // ' ' // name // ' = ' // trim(NEUTRAL(vars(v)%type)) &
                       // ' /', trial, ios, iomsg)
       if (ios /= 0) then
-        if (VARS(v)%dims(1) == 0) then
+        if (vars(v)%dims(1) == 0) then
           reason = 'has an index, but ' // base // ' is not an array'
         else
-          reason = 'has an index outside ' // base // shape_text(VARS(v))
+          reason = 'has an index outside ' // base // shape_text(vars(v))
         end if
         return
       end if
     end if
-    reason = 'cannot be read as ' // type_text(VARS(v))
-    select case (VARS(v)%type)
+    reason = 'cannot be read as ' // type_text(vars(v))
+    select case (vars(v)%type)
     case (T_INT)
       read(value, *, iostat=ios) x
       if (verify(shown_value(value), '+-0123456789') == 0) then
         hint = ': it is too large'
-        if (VARS(v)%hi_rule /= HI_NONE) hint = hint // '; allowed ' // allowed_text(VARS(v))
+        if (vars(v)%hi_rule /= HI_NONE) hint = hint // '; allowed ' // allowed_text(vars(v))
       else if (ios == 0) then
         hint = ': write a whole number'
         if (ieee_is_finite(x)) hint = hint // ', e.g. ' // num_str(anint(x))
@@ -929,266 +490,27 @@ contains
     type(config_t), intent(inout) :: c
     integer, intent(out) :: ios
     character(len=*), intent(inout) :: iomsg
-    select case (g)
+    integer :: k
+    k = case_of_group(c, g)
+    if (k > 0) then
+      call c%cases(k)%c%read_group(text, ios, iomsg)
+      return
+    end if
+    select case (generic_group(c, g))
     case (G_RUN)
-      call read_run(text, c%run, ios, iomsg)
+      call c%run%read_group(text, ios, iomsg)
     case (G_PARTICLES)
-      call read_particles(text, c%particles, ios, iomsg)
+      call c%particles%read_group(text, ios, iomsg)
     case (G_PHYSICS)
-      call read_physics(text, c%physics, ios, iomsg)
+      call c%physics%read_group(text, ios, iomsg)
     case (G_NUMERICS)
-      call read_numerics(text, c%numerics, ios, iomsg)
+      call c%numerics%read_group(text, ios, iomsg)
     case (G_OUTPUT)
-      call read_output(text, c%output, ios, iomsg)
-    case (G_CIRCLE2D)
-      call read_circle2d(text, c%circle2d, ios, iomsg)
-    case (G_ELLIPSOID3D)
-      call read_ellipsoid3d(text, c%ellipsoid3d, ios, iomsg)
-    case (G_SQUARE_ROTATION)
-      call read_square_rotation(text, c%square_rotation, ios, iomsg)
-    case (G_SQUARE_VORTICAL)
-      call read_square_vortical(text, c%square_vortical, ios, iomsg)
-    case (G_PARALLEL)
-      call read_parallel(text, c%parallel, ios, iomsg)
+      call c%output%read_group(text, ios, iomsg)
     case default
-      ios = 1
+      call c%parallel%read_group(text, ios, iomsg)
     end select
   end subroutine read_group
-
-  ! One reader per group: the namelist needs local variables with the names
-  ! the user writes.  Each starts from the current values, so an item
-  ! changes only its own variable, and stores nothing if the read fails.
-
-  subroutine read_run(text, p, ios, iomsg)
-    character(len=*), intent(in) :: text
-    type(run_params_t), intent(inout) :: p
-    integer, intent(out) :: ios
-    character(len=*), intent(inout) :: iomsg
-    character(len=NAME_LEN) :: case
-    character(len=4 * DIR_LEN_MAX) :: restart   ! wider than p%restart, as for output.dir
-    real(wp) :: t_end, progress_interval
-    integer :: max_steps
-    namelist /run/ case, t_end, max_steps, progress_interval, restart
-    case = p%case_name
-    t_end = p%t_end
-    max_steps = p%max_steps
-    progress_interval = p%progress_interval
-    restart = p%restart
-    read(text, nml=run, iostat=ios, iomsg=iomsg)
-    if (ios /= 0) return
-    p%case_name = case
-    p%t_end = t_end
-    p%max_steps = max_steps
-    p%progress_interval = progress_interval
-    p%restart = restart(1:len(p%restart))
-  end subroutine read_run
-
-  subroutine read_particles(text, p, ios, iomsg)
-    character(len=*), intent(in) :: text
-    type(particles_params_t), intent(inout) :: p
-    integer, intent(out) :: ios
-    character(len=*), intent(inout) :: iomsg
-    integer :: n
-    character(len=NAME_LEN) :: placement
-    character(len=4 * DIR_LEN_MAX) :: from   ! wider than p%from, as for output.dir
-    real(wp) :: h_over_dx
-    integer :: pack_iterations
-    namelist /particles/ n, placement, h_over_dx, pack_iterations, from
-    n = p%n
-    placement = p%placement
-    h_over_dx = p%h_over_dx
-    pack_iterations = p%pack_iterations
-    from = p%from
-    read(text, nml=particles, iostat=ios, iomsg=iomsg)
-    if (ios /= 0) return
-    p%n = n
-    p%placement = placement
-    p%h_over_dx = h_over_dx
-    p%pack_iterations = pack_iterations
-    p%from = from(1:len(p%from))
-  end subroutine read_particles
-
-  subroutine read_physics(text, p, ios, iomsg)
-    character(len=*), intent(in) :: text
-    type(physics_params_t), intent(inout) :: p
-    integer, intent(out) :: ios
-    character(len=*), intent(inout) :: iomsg
-    real(wp) :: rho0, c0, gamma
-    character(len=NAME_LEN) :: eos
-    namelist /physics/ rho0, c0, eos, gamma
-    rho0 = p%rho0
-    c0 = p%c0
-    eos = p%eos
-    gamma = p%gamma
-    read(text, nml=physics, iostat=ios, iomsg=iomsg)
-    if (ios /= 0) return
-    p%rho0 = rho0
-    p%c0 = c0
-    p%eos = eos
-    p%gamma = gamma
-  end subroutine read_physics
-
-  subroutine read_numerics(text, p, ios, iomsg)
-    character(len=*), intent(in) :: text
-    type(numerics_params_t), intent(inout) :: p
-    integer, intent(out) :: ios
-    character(len=*), intent(inout) :: iomsg
-    character(len=NAME_LEN) :: kernel, integrator, viscosity, diffusion
-    character(len=NAME_LEN) :: pressure_gradient, divergence, renormalise
-    real(wp) :: cfl, cfl_force, cfl_visc, alpha, delta, skin, tensile_eps
-    logical :: tensile, shifting
-    integer :: tensile_n
-    namelist /numerics/ kernel, integrator, cfl, cfl_force, cfl_visc, viscosity, alpha, &
-                        diffusion, delta, skin, tensile, tensile_eps, tensile_n, &
-                        pressure_gradient, divergence, shifting, renormalise
-    kernel = p%kernel
-    integrator = p%integrator
-    cfl = p%cfl
-    cfl_force = p%cfl_force
-    cfl_visc = p%cfl_visc
-    viscosity = p%viscosity
-    alpha = p%alpha
-    diffusion = p%diffusion
-    delta = p%delta
-    skin = p%skin
-    tensile = p%tensile
-    tensile_eps = p%tensile_eps
-    tensile_n = p%tensile_n
-    pressure_gradient = p%pressure_gradient
-    divergence = p%divergence
-    shifting = p%shifting
-    renormalise = p%renormalise
-    read(text, nml=numerics, iostat=ios, iomsg=iomsg)
-    if (ios /= 0) return
-    p%kernel = kernel
-    p%integrator = integrator
-    p%cfl = cfl
-    p%cfl_force = cfl_force
-    p%cfl_visc = cfl_visc
-    p%viscosity = viscosity
-    p%alpha = alpha
-    p%diffusion = diffusion
-    p%delta = delta
-    p%skin = skin
-    p%tensile = tensile
-    p%tensile_eps = tensile_eps
-    p%tensile_n = tensile_n
-    p%pressure_gradient = pressure_gradient
-    p%divergence = divergence
-    p%shifting = shifting
-    p%renormalise = renormalise
-  end subroutine read_numerics
-
-  subroutine read_output(text, p, ios, iomsg)
-    character(len=*), intent(in) :: text
-    type(output_params_t), intent(inout) :: p
-    integer, intent(out) :: ios
-    character(len=*), intent(inout) :: iomsg
-    ! Wider than p%dir so that gfortran does not warn of truncation; the
-    ! extra character p%dir keeps is enough for validate to see the excess.
-    character(len=4 * DIR_LEN_MAX) :: dir
-    real(wp) :: dt, probes(3, MAX_PROBES)
-    integer :: probe_every, n_probes
-    logical :: snapshots
-    namelist /output/ dir, dt, probe_every, snapshots, n_probes, probes
-    dir = p%dir
-    dt = p%dt
-    probe_every = p%probe_every
-    snapshots = p%snapshots
-    n_probes = p%n_probes
-    probes = p%probes
-    read(text, nml=output, iostat=ios, iomsg=iomsg)
-    if (ios /= 0) return
-    p%dir = dir(1:len(p%dir))
-    p%dt = dt
-    p%probe_every = probe_every
-    p%snapshots = snapshots
-    p%n_probes = n_probes
-    p%probes = probes
-  end subroutine read_output
-
-  subroutine read_circle2d(text, p, ios, iomsg)
-    character(len=*), intent(in) :: text
-    type(circle2d_params_t), intent(inout) :: p
-    integer, intent(out) :: ios
-    character(len=*), intent(inout) :: iomsg
-    real(wp) :: radius, a0
-    namelist /circle2d/ radius, a0
-    radius = p%radius
-    a0 = p%a0
-    read(text, nml=circle2d, iostat=ios, iomsg=iomsg)
-    if (ios /= 0) return
-    p%radius = radius
-    p%a0 = a0
-  end subroutine read_circle2d
-
-  subroutine read_ellipsoid3d(text, p, ios, iomsg)
-    character(len=*), intent(in) :: text
-    type(ellipsoid3d_params_t), intent(inout) :: p
-    integer, intent(out) :: ios
-    character(len=*), intent(inout) :: iomsg
-    real(wp) :: radius, a0, rates(3)
-    logical :: prepared
-    namelist /ellipsoid3d/ radius, a0, rates, prepared
-    radius = p%radius
-    a0 = p%a0
-    rates = p%rates
-    prepared = p%prepared
-    read(text, nml=ellipsoid3d, iostat=ios, iomsg=iomsg)
-    if (ios /= 0) return
-    p%radius = radius
-    p%a0 = a0
-    p%rates = rates
-    p%prepared = prepared
-  end subroutine read_ellipsoid3d
-
-  subroutine read_square_rotation(text, p, ios, iomsg)
-    character(len=*), intent(in) :: text
-    type(square_rotation_params_t), intent(inout) :: p
-    integer, intent(out) :: ios
-    character(len=*), intent(inout) :: iomsg
-    real(wp) :: side, omega
-    namelist /square_rotation/ side, omega
-    side = p%side
-    omega = p%omega
-    read(text, nml=square_rotation, iostat=ios, iomsg=iomsg)
-    if (ios /= 0) return
-    p%side = side
-    p%omega = omega
-  end subroutine read_square_rotation
-
-  subroutine read_parallel(text, p, ios, iomsg)
-    character(len=*), intent(in) :: text
-    type(parallel_params_t), intent(inout) :: p
-    integer, intent(out) :: ios
-    character(len=*), intent(inout) :: iomsg
-    character(len=NAME_LEN) :: decomposition, balance
-    real(wp) :: imbalance_threshold
-    namelist /parallel/ decomposition, balance, imbalance_threshold
-    decomposition = p%decomposition
-    balance = p%balance
-    imbalance_threshold = p%imbalance_threshold
-    read(text, nml=parallel, iostat=ios, iomsg=iomsg)
-    if (ios /= 0) return
-    p%decomposition = lower(decomposition)
-    p%balance = lower(balance)
-    p%imbalance_threshold = imbalance_threshold
-  end subroutine read_parallel
-
-  subroutine read_square_vortical(text, p, ios, iomsg)
-    character(len=*), intent(in) :: text
-    type(square_vortical_params_t), intent(inout) :: p
-    integer, intent(out) :: ios
-    character(len=*), intent(inout) :: iomsg
-    real(wp) :: side, v0
-    namelist /square_vortical/ side, v0
-    side = p%side
-    v0 = p%v0
-    read(text, nml=square_vortical, iostat=ios, iomsg=iomsg)
-    if (ios /= 0) return
-    p%side = side
-    p%v0 = v0
-  end subroutine read_square_vortical
 
   ! ------------------------------------------------------------------------
   ! Checks
@@ -1210,24 +532,28 @@ contains
     c%numerics%renormalise = lower(adjustl(c%numerics%renormalise))
   end subroutine normalise_words
 
-  !> Every value on its own (ranges and lists from VARS), then the rules
+  !> Every value on its own (ranges and lists from vars), then the rules
   !> that involve several values.  Messages name where the value was set.
   subroutine validate(c, path, origins, err)
     type(config_t), intent(in) :: c
     character(len=*), intent(in) :: path
     type(origin_t), intent(in) :: origins(:)
     character(len=:), allocatable, intent(inout) :: err
-    character(len=:), allocatable :: text, origin, head, formula, dir
+    type(group_t), allocatable :: groups(:)
+    type(var_t), allocatable :: vars(:)
+    character(len=:), allocatable :: text, origin, head, formula, dir, var, what, hint
     character(len=NAME_LEN), allocatable :: list(:)
-    real(wp) :: x, speed, s
-    integer :: k, line
+    real(wp) :: x, speed
+    integer :: k, line, sel
     type(var_t) :: v
 
-    do k = 1, size(VARS)
-      v = VARS(k)
+    call list_groups(groups)
+    call list_vars(vars)
+    do k = 1, size(vars)
+      v = vars(k)
       call get_value(c, v, text, x)
       call origin_of(origins, path, key(v), origin, line)
-      head = '&' // trim(GROUPS(v%group)%name) // ' ' // trim(v%name) // ' = ' // text
+      head = '&' // trim(groups(v%group)%name) // ' ' // trim(v%name) // ' = ' // text
       if (v%lo_rule /= LO_NONE .or. v%hi_rule /= HI_NONE) then
         if (.not. in_range(v, x)) then
           call fail(err, origin, head // ' is out of range', line, &
@@ -1273,13 +599,15 @@ contains
         return
       end if
     end if
-    if (c%particles%placement == 'packed' .and. c%run%case_name /= 'circle2d' .and. &
-        c%run%case_name /= 'ellipsoid3d') then
-      call origin_of(origins, path, 'particles.placement', origin, line)
-      call fail(err, origin, '&particles placement = ''packed'' is not available for ' // &
-                trim(c%run%case_name), line, ': packing serves circle2d and ellipsoid3d; ' // &
-                'the square patches are always on a lattice')
-      return
+    sel = selected_case(c)
+    if (c%particles%placement == 'packed' .and. sel > 0) then
+      if (len_trim(c%cases(sel)%c%no_packing) > 0) then
+        call origin_of(origins, path, 'particles.placement', origin, line)
+        call fail(err, origin, '&particles placement = ''packed'' is not available for ' // &
+                  trim(c%run%case_name), line, ': packing serves ' // packing_cases(c) // &
+                  '; ' // trim(c%cases(sel)%c%no_packing))
+        return
+      end if
     end if
 
     call origin_of(origins, path, 'output.probes', origin, line)
@@ -1291,25 +619,14 @@ contains
       end if
     end do
 
-    ! The rates of a divergence-free linear field sum to zero (doc/theory.md X1).
-    associate (rates => c%ellipsoid3d%rates)
-      call origin_of(origins, path, 'ellipsoid3d.rates', origin, line)
-      head = '&ellipsoid3d rates = ' // real_list(rates)
-      s = sum(rates)
-      if (.not. all(ieee_is_finite(rates))) then
-        call fail(err, origin, head // ' are not all finite', line, '')
-        return
-      else if (.not. abs(s) <= RATES_SUM_TOL) then
-        call fail(err, origin, head // ' sum to ' // real_str(s), line, &
-                  ': they must sum to zero (incompressible flow), within ' // &
-                  real_str(RATES_SUM_TOL) // ', e.g. -1.0, -1.0, 2.0')
-        return
-      else if (.not. maxval(abs(rates)) > 0) then
-        call fail(err, origin, head // ' are all zero', line, &
-                  ': give a non-zero flow, e.g. -1.0, -1.0, 2.0')
-        return
-      end if
-    end associate
+    ! The rules of each case's own group, whichever case runs.
+    do k = 1, size(c%cases)
+      call c%cases(k)%c%check(var, what, hint)
+      if (len(var) == 0) cycle
+      call origin_of(origins, path, trim(c%cases(k)%c%name) // '.' // var, origin, line)
+      call fail(err, origin, '&' // trim(c%cases(k)%c%name) // ' ' // what, line, hint)
+      return
+    end do
 
     ! Stability of the time integrators in the acoustic CFL (measured on
     ! circle2d, doc/numerics.md): rk4 is unaffected up to 2.4 and degrades
@@ -1330,7 +647,9 @@ contains
     end if
 
     ! Weak compressibility: the Mach number must stay small.
-    call case_speed(c, speed, formula)
+    speed = 0
+    formula = '0'
+    if (sel > 0) call c%cases(sel)%c%max_speed(speed, formula)
     call origin_of(origins, path, 'physics.c0', origin, line)
     if (.not. c%physics%c0 >= MACH_FACTOR * speed) then
       call fail(err, origin, '&physics c0 = ' // real_str(c%physics%c0) // &
@@ -1341,30 +660,6 @@ contains
       return
     end if
   end subroutine validate
-
-  !> The largest initial speed of the selected case and how it is computed.
-  subroutine case_speed(c, speed, formula)
-    type(config_t), intent(in) :: c
-    real(wp), intent(out) :: speed
-    character(len=:), allocatable, intent(out) :: formula
-    select case (c%run%case_name)
-    case ('circle2d')   ! u = -A0 x, v = A0 y: A0 R on the circle
-      speed = c%circle2d%a0 * c%circle2d%radius
-      formula = '&circle2d a0 radius'
-    case ('ellipsoid3d')   ! u_k = rates(k) A0 x_k: max|rates| A0 R on the sphere
-      speed = maxval(abs(c%ellipsoid3d%rates)) * c%ellipsoid3d%a0 * c%ellipsoid3d%radius
-      formula = '&ellipsoid3d max|rates| a0 radius'
-    case ('square_rotation')   ! u = omega (y, -x): omega L/sqrt(2) at the corners
-      speed = c%square_rotation%omega * c%square_rotation%side / sqrt(2.0_wp)
-      formula = '&square_rotation omega side/sqrt(2)'
-    case ('square_vortical')   ! |u| = sqrt(2) V0 (1 - e^-4) at the centre
-      speed = sqrt(2.0_wp) * c%square_vortical%v0 * (1 - exp(-4.0_wp))
-      formula = '&square_vortical sqrt(2) (1 - e^-4) v0'
-    case default
-      speed = 0
-      formula = '0'
-    end select
-  end subroutine case_speed
 
   logical function in_range(v, x)
     type(var_t), intent(in) :: v
@@ -1387,31 +682,35 @@ contains
     type(config_t), intent(in) :: c
     integer, intent(in) :: unit
     character(len=*), intent(in) :: title(:)
+    type(group_t), allocatable :: groups(:)
+    type(var_t), allocatable :: vars(:)
     character(len=:), allocatable :: text
     real(wp) :: x
     integer :: g, k, p
     logical :: first
 
+    call list_groups(groups)
+    call list_vars(vars)
     do k = 1, size(title)
       write(unit, '(a)') trim('! ' // title(k))
     end do
-    do g = 1, size(GROUPS)
-      write(unit, '(a)') '', '! ' // trim(GROUPS(g)%help), '&' // trim(GROUPS(g)%name)
-      do k = 1, size(VARS)
-        if (VARS(k)%group /= g) cycle
-        if (VARS(k)%dims(2) > 0) then
+    do g = 1, size(groups)
+      write(unit, '(a)') '', '! ' // trim(groups(g)%help), '&' // trim(groups(g)%name)
+      do k = 1, size(vars)
+        if (vars(k)%group /= g) cycle
+        if (vars(k)%dims(2) > 0) then
           ! probes: one line per probe in use or set (the rest stay zero).
           first = .true.
           do p = 1, MAX_PROBES
             if (p > max(1, c%output%n_probes) .and. &
                 all(transfer(c%output%probes(:, p), 0_i8, 3) == 0_i8)) cycle
-            call write_item(unit, trim(VARS(k)%name) // '(1:3,' // int_str(p) // ')', &
-                            real_list(c%output%probes(:, p)), VARS(k), first)
+            call write_item(unit, trim(vars(k)%name) // '(1:3,' // int_str(p) // ')', &
+                            real_list(c%output%probes(:, p)), vars(k), first)
             first = .false.
           end do
         else
-          call get_value(c, VARS(k), text, x)
-          call write_item(unit, trim(VARS(k)%name), text, VARS(k), .true.)
+          call get_value(c, vars(k), text, x)
+          call write_item(unit, trim(vars(k)%name), text, vars(k), .true.)
         end if
       end do
       write(unit, '(a)') '/'
@@ -1438,124 +737,34 @@ contains
     type(var_t), intent(in) :: v
     character(len=:), allocatable, intent(out) :: text
     real(wp), intent(out) :: x
+    integer :: k
     x = 0
-    text = ''
-    select case (key(v))
-    case ('run.case')
-      text = quoted(c%run%case_name)
-    case ('run.t_end')
-      x = c%run%t_end
-    case ('run.max_steps')
-      x = real(c%run%max_steps, wp)
-    case ('run.progress_interval')
-      x = c%run%progress_interval
-    case ('particles.n')
-      x = real(c%particles%n, wp)
-    case ('particles.placement')
-      text = quoted(c%particles%placement)
-    case ('particles.h_over_dx')
-      x = c%particles%h_over_dx
-    case ('particles.pack_iterations')
-      x = real(c%particles%pack_iterations, wp)
-    case ('particles.from')
-      text = quoted(c%particles%from)
-    case ('physics.rho0')
-      x = c%physics%rho0
-    case ('physics.c0')
-      x = c%physics%c0
-    case ('physics.eos')
-      text = quoted(c%physics%eos)
-    case ('physics.gamma')
-      x = c%physics%gamma
-    case ('numerics.kernel')
-      text = quoted(c%numerics%kernel)
-    case ('numerics.integrator')
-      text = quoted(c%numerics%integrator)
-    case ('numerics.cfl')
-      x = c%numerics%cfl
-    case ('numerics.cfl_force')
-      x = c%numerics%cfl_force
-    case ('numerics.cfl_visc')
-      x = c%numerics%cfl_visc
-    case ('numerics.viscosity')
-      text = quoted(c%numerics%viscosity)
-    case ('numerics.alpha')
-      x = c%numerics%alpha
-    case ('numerics.diffusion')
-      text = quoted(c%numerics%diffusion)
-    case ('numerics.delta')
-      x = c%numerics%delta
-    case ('numerics.skin')
-      x = c%numerics%skin
-    case ('numerics.tensile')
-      text = merge('.true. ', '.false.', c%numerics%tensile)
-      text = trim(text)
-    case ('numerics.tensile_eps')
-      x = c%numerics%tensile_eps
-    case ('numerics.tensile_n')
-      x = real(c%numerics%tensile_n, wp)
-    case ('numerics.pressure_gradient')
-      text = quoted(c%numerics%pressure_gradient)
-    case ('numerics.renormalise')
-      text = quoted(c%numerics%renormalise)
-    case ('numerics.divergence')
-      text = quoted(c%numerics%divergence)
-    case ('numerics.shifting')
-      text = merge('.true. ', '.false.', c%numerics%shifting)
-      text = trim(text)
-    case ('output.dir')
-      text = quoted(c%output%dir)
-    case ('output.dt')
-      x = c%output%dt
-    case ('output.probe_every')
-      x = real(c%output%probe_every, wp)
-    case ('output.snapshots')
-      text = merge('.true. ', '.false.', c%output%snapshots)
-      text = trim(text)
-    case ('output.n_probes')
-      x = real(c%output%n_probes, wp)
-    case ('circle2d.radius')
-      x = c%circle2d%radius
-    case ('circle2d.a0')
-      x = c%circle2d%a0
-    case ('ellipsoid3d.radius')
-      x = c%ellipsoid3d%radius
-    case ('ellipsoid3d.a0')
-      x = c%ellipsoid3d%a0
-    case ('ellipsoid3d.rates')
-      text = real_list(c%ellipsoid3d%rates)
-    case ('ellipsoid3d.prepared')
-      text = trim(merge('.true. ', '.false.', c%ellipsoid3d%prepared))
-    case ('square_rotation.side')
-      x = c%square_rotation%side
-    case ('square_rotation.omega')
-      x = c%square_rotation%omega
-    case ('square_vortical.side')
-      x = c%square_vortical%side
-    case ('square_vortical.v0')
-      x = c%square_vortical%v0
-    case ('run.restart')
-      text = quoted(c%run%restart)
-    case ('parallel.decomposition')
-      text = quoted(c%parallel%decomposition)
-    case ('parallel.balance')
-      text = quoted(c%parallel%balance)
-    case ('parallel.imbalance_threshold')
-      x = c%parallel%imbalance_threshold
-    end select
-    if (v%dims(1) == 0) then
-      if (v%type == T_INT) text = int_str(nint(x))
-      if (v%type == T_REAL) text = real_str(x)
+    k = case_of_group(c, v%group)
+    if (k > 0) then
+      text = c%cases(k)%c%value_text(trim(v%name))
+    else
+      select case (generic_group(c, v%group))
+      case (G_RUN)
+        text = c%run%value_text(trim(v%name))
+      case (G_PARTICLES)
+        text = c%particles%value_text(trim(v%name))
+      case (G_PHYSICS)
+        text = c%physics%value_text(trim(v%name))
+      case (G_NUMERICS)
+        text = c%numerics%value_text(trim(v%name))
+      case (G_OUTPUT)
+        text = c%output%value_text(trim(v%name))
+      case default
+        text = c%parallel%value_text(trim(v%name))
+      end select
     end if
+    if (v%dims(1) == 0 .and. (v%type == T_INT .or. v%type == T_REAL)) read(text, *) x
   end subroutine get_value
 
   ! ------------------------------------------------------------------------
   ! Messages
   ! ------------------------------------------------------------------------
 
-  !> The one way an error message is made: "origin: what (line N)hint".
-  !> origin is the file or 'command line'; the line only if known (> 0);
-  !> hint says what is allowed or what to do.
   !> A non-empty file name given for variable `key` (group.name) must name
   !> an existing file; err says so otherwise.
   subroutine require_file(err, origins, path, key, file, hint)
@@ -1573,16 +782,6 @@ contains
     call fail(err, origin, '&' // key(1:dot - 1) // ' ' // key(dot + 1:) // ' = ' // quoted(file) &
               // ' does not exist', line, hint)
   end subroutine require_file
-
-  subroutine fail(err, origin, what, line, hint)
-    character(len=:), allocatable, intent(inout) :: err
-    character(len=*), intent(in) :: origin, what
-    integer, intent(in) :: line
-    character(len=*), intent(in) :: hint
-    err = origin // ': ' // what
-    if (line > 0) err = err // ' (line ' // int_str(line) // ')'
-    err = err // hint
-  end subroutine fail
 
   !> What is allowed for v, e.g. "0 < cfl <= 3" or "one of 'rk4', 'pc2'".
   function allowed_text(v) result(s)
@@ -1629,7 +828,7 @@ contains
     if (v%dims(2) > 0) then
       s = 'all 0.0'
     else
-      call get_value(config_t(), v, s, x)
+      call get_value(config_defaults(), v, s, x)
     end if
   end function default_text
 
@@ -1638,15 +837,15 @@ contains
     character(len=*), intent(in) :: name
     character(len=:), allocatable :: s
     character(len=:), allocatable :: best
-    character(len=len(GROUPS%name)) :: names(size(GROUPS))
+    type(group_t), allocatable :: groups(:)
     integer :: k
-    names = GROUPS%name
-    best = closest(name, names)
+    call list_groups(groups)
+    best = closest(name, groups%name)
     s = '; the groups are'
     if (len(best) > 0) s = '; did you mean &' // best // '? The groups are'
-    do k = 1, size(GROUPS)
-      s = s // ' &' // trim(GROUPS(k)%name)
-      if (k < size(GROUPS)) s = s // ','
+    do k = 1, size(groups)
+      s = s // ' &' // trim(groups(k)%name)
+      if (k < size(groups)) s = s // ','
     end do
   end function unknown_group_hint
 
@@ -1654,56 +853,26 @@ contains
   function unknown_var_hint(g, name) result(s)
     integer, intent(in) :: g
     character(len=*), intent(in) :: name
+    type(group_t), allocatable :: groups(:)
+    type(var_t), allocatable :: vars(:)
     character(len=:), allocatable :: s
     character(len=:), allocatable :: best
     integer :: k
     logical :: first
-    best = closest(name, pack(VARS%name, VARS%group == g))
-    s = '; the variables of &' // trim(GROUPS(g)%name) // ' are'
+    call list_groups(groups)
+    call list_vars(vars)
+    best = closest(name, pack(vars%name, vars%group == g))
+    s = '; the variables of &' // trim(groups(g)%name) // ' are'
     if (len(best) > 0) s = '; did you mean ''' // best // '''? The variables of &' // &
-                           trim(GROUPS(g)%name) // ' are'
+                           trim(groups(g)%name) // ' are'
     first = .true.
-    do k = 1, size(VARS)
-      if (VARS(k)%group /= g) cycle
+    do k = 1, size(vars)
+      if (vars(k)%group /= g) cycle
       if (.not. first) s = s // ','
-      s = s // ' ' // trim(VARS(k)%name)
+      s = s // ' ' // trim(vars(k)%name)
       first = .false.
     end do
   end function unknown_var_hint
-
-  !> The candidate closest to word by edit distance if it is close enough to
-  !> be a typo (at most a third of the word's letters, at least 1), else ''.
-  function closest(word, candidates) result(best)
-    character(len=*), intent(in) :: word
-    character(len=*), intent(in) :: candidates(:)
-    character(len=:), allocatable :: best
-    integer :: k, d, dmin
-    best = ''
-    dmin = max(1, len_trim(word) / 3) + 1
-    do k = 1, size(candidates)
-      d = edit_distance(trim(word), trim(candidates(k)))
-      if (d < dmin) then
-        dmin = d
-        best = trim(candidates(k))
-      end if
-    end do
-  end function closest
-
-  !> Levenshtein distance (insertions, deletions, substitutions).
-  pure integer function edit_distance(a, b) result(d)
-    character(len=*), intent(in) :: a, b
-    integer :: prev(0:len(b)), cur(0:len(b)), i, j
-    prev = [(j, j = 0, len(b))]
-    do i = 1, len(a)
-      cur(0) = i
-      do j = 1, len(b)
-        cur(j) = min(prev(j) + 1, cur(j - 1) + 1, &
-                     prev(j - 1) + merge(0, 1, a(i:i) == b(j:j)))
-      end do
-      prev = cur
-    end do
-    d = prev(len(b))
-  end function edit_distance
 
   !> "a real number", "an integer", ... for "cannot be read as ...".
   function type_text(v) result(s)
@@ -1763,298 +932,134 @@ contains
   !> 'group.name' of a variable.
   function key(v) result(s)
     type(var_t), intent(in) :: v
+    type(group_t), allocatable :: groups(:)
     character(len=:), allocatable :: s
-    s = trim(GROUPS(v%group)%name) // '.' // trim(v%name)
+    call list_groups(groups)
+    s = trim(groups(v%group)%name) // '.' // trim(v%name)
   end function key
 
   integer function group_index(name)
     character(len=*), intent(in) :: name
+    type(group_t), allocatable :: groups(:)
     integer :: k
+    call list_groups(groups)
     group_index = 0
-    do k = 1, size(GROUPS)
-      if (GROUPS(k)%name == name) group_index = k
+    do k = 1, size(groups)
+      if (groups(k)%name == name) group_index = k
     end do
   end function group_index
 
   integer function var_index(g, name)
     integer, intent(in) :: g
     character(len=*), intent(in) :: name
+    type(var_t), allocatable :: vars(:)
     integer :: k
+    call list_vars(vars)
     var_index = 0
-    do k = 1, size(VARS)
-      if (VARS(k)%group == g .and. VARS(k)%name == name) var_index = k
+    do k = 1, size(vars)
+      if (vars(k)%group == g .and. vars(k)%name == name) var_index = k
     end do
   end function var_index
+
+  !> Every group: the generic ones with each case's own group before &parallel.
+  subroutine list_groups(groups)
+    type(group_t), allocatable, intent(out) :: groups(:)
+    type(config_t) :: defaults   ! not a local array of cases: gfortran -Wall warns falsely
+    character(len=:), allocatable :: name
+    integer :: k
+    call register_cases(defaults%cases)
+    groups = GENERIC_GROUPS(1:N_BEFORE_CASES)
+    do k = 1, size(defaults%cases)
+      name = trim(defaults%cases(k)%c%name)
+      groups = [groups, group_t(name, trim(defaults%cases(k)%c%help) // &
+                                ', used when run.case = ''' // name // '''')]
+    end do
+    groups = [groups, GENERIC_GROUPS(N_BEFORE_CASES + 1:)]
+  end subroutine list_groups
+
+  !> Every variable in the order of list_groups, var_t%group indexing it.
+  subroutine list_vars(vars)
+    type(var_t), allocatable, intent(out) :: vars(:)
+    type(var_t), allocatable :: more(:)
+    type(config_t) :: defaults   ! not a local array of cases: gfortran -Wall warns falsely
+    integer :: k
+    call register_cases(defaults%cases)
+    vars = pack(GENERIC_VARS, GENERIC_VARS%group <= N_BEFORE_CASES)
+    do k = 1, size(defaults%cases)
+      more = defaults%cases(k)%c%vars()
+      more%group = N_BEFORE_CASES + k
+      vars = [vars, more]
+    end do
+    more = pack(GENERIC_VARS, GENERIC_VARS%group > N_BEFORE_CASES)
+    more%group = more%group + size(defaults%cases)
+    vars = [vars, more]
+  end subroutine list_vars
+
+  !> The index into c%cases of the case whose group is group g, 0 if none.
+  integer function case_of_group(c, g)
+    type(config_t), intent(in) :: c
+    integer, intent(in) :: g
+    case_of_group = g - N_BEFORE_CASES
+    if (case_of_group < 1 .or. case_of_group > size(c%cases)) case_of_group = 0
+  end function case_of_group
+
+  !> The index into GENERIC_GROUPS of group g (not a case's group).
+  integer function generic_group(c, g)
+    type(config_t), intent(in) :: c
+    integer, intent(in) :: g
+    generic_group = g
+    if (g > N_BEFORE_CASES) generic_group = g - size(c%cases)
+  end function generic_group
+
+  !> The index into c%cases of run.case, 0 if no case has that name.
+  integer function selected_case(c)
+    type(config_t), intent(in) :: c
+    integer :: k
+    selected_case = 0
+    do k = 1, size(c%cases)
+      if (c%cases(k)%c%name == c%run%case_name) selected_case = k
+    end do
+  end function selected_case
+
+  function case_names() result(names)
+    character(len=NAME_LEN), allocatable :: names(:)
+    type(config_t) :: defaults   ! not a local array of cases: gfortran -Wall warns falsely
+    integer :: k
+    call register_cases(defaults%cases)
+    allocate(names(size(defaults%cases)))
+    do k = 1, size(defaults%cases)
+      names(k) = defaults%cases(k)%c%name
+    end do
+  end function case_names
+
+  !> "a, b and c": the cases that can start from packed particles.
+  function packing_cases(c) result(s)
+    type(config_t), intent(in) :: c
+    character(len=:), allocatable :: s
+    integer :: k, n, left
+    s = ''
+    n = count([(len_trim(c%cases(k)%c%no_packing) == 0, k = 1, size(c%cases))])
+    left = n
+    do k = 1, size(c%cases)
+      if (len_trim(c%cases(k)%c%no_packing) > 0) cycle
+      if (left == 1 .and. n > 1) then
+        s = s // ' and '
+      else if (left < n) then
+        s = s // ', '
+      end if
+      s = s // trim(c%cases(k)%c%name)
+      left = left - 1
+    end do
+  end function packing_cases
 
   function choice_list(id) result(list)
     integer, intent(in) :: id
     character(len=NAME_LEN), allocatable :: list(:)
-    select case (id)
-    case (CH_CASE)
-      list = CASES%name
-    case (CH_PLACEMENT)
-      list = PLACEMENTS
-    case (CH_EOS)
-      list = EOS_NAMES
-    case (CH_KERNEL)
-      list = KERNEL_NAMES
-    case (CH_INTEGRATOR)
-      list = INTEGRATORS
-    case (CH_VISCOSITY)
-      list = VISCOSITIES
-    case (CH_DIFFUSION)
-      list = DIFFUSIONS
-    case (CH_DECOMPOSITION)
-      list = DECOMPOSITIONS
-    case (CH_BALANCE)
-      list = BALANCES
-    case (CH_PRESSURE_GRADIENT)
-      list = PRESSURE_GRADIENTS
-    case (CH_DIVERGENCE)
-      list = DIVERGENCES
-    case (CH_RENORMALISE)
-      list = RENORMALISE_WHEN
-    case default
-      allocate(list(0))
-    end select
+    if (id == CH_CASE) then
+      list = case_names()
+    else
+      list = word_list(id)
+    end if
   end function choice_list
-
-  !> "'a', 'b', 'c'".
-  function allowed_words(list) result(s)
-    character(len=*), intent(in) :: list(:)
-    character(len=:), allocatable :: s
-    integer :: k
-    s = ''
-    do k = 1, size(list)
-      if (k > 1) s = s // ', '
-      s = s // quoted(list(k))
-    end do
-  end function allowed_words
-
-  function quoted_list(list) result(q)
-    character(len=*), intent(in) :: list(:)
-    character(len=len(list) + 2), allocatable :: q(:)
-    integer :: k
-    allocate(q(size(list)))
-    do k = 1, size(list)
-      q(k) = quoted(list(k))
-    end do
-  end function quoted_list
-
-  !> s (without trailing blanks) in single quotes, inner quotes doubled.
-  function quoted(s) result(q)
-    character(len=*), intent(in) :: s
-    character(len=:), allocatable :: q
-    integer :: i
-    q = ''''
-    do i = 1, len_trim(s)
-      q = q // s(i:i)
-      if (s(i:i) == '''') q = q // ''''
-    end do
-    q = q // ''''
-  end function quoted
-
-  !> An item's value as the user wrote it, for messages: without the
-  !> surrounding blanks and a trailing separator.
-  function shown_value(value) result(s)
-    character(len=*), intent(in) :: value
-    character(len=:), allocatable :: s
-    s = trim(adjustl(value))
-    if (len(s) > 0) then
-      if (s(len(s):len(s)) == ',' .or. s(len(s):len(s)) == ';') s = trim(s(1:len(s) - 1))
-    end if
-  end function shown_value
-
-  !> value with every quoted part blanked.
-  function unquoted(value) result(s)
-    character(len=*), intent(in) :: value
-    character(len=len(value)) :: s
-    character(len=1) :: quote
-    integer :: i
-    s = value
-    quote = ' '
-    do i = 1, len(value)
-      if (quote /= ' ') then
-        if (value(i:i) == quote) quote = ' '
-        s(i:i) = ' '
-      else if (value(i:i) == '''' .or. value(i:i) == '"') then
-        quote = value(i:i)
-        s(i:i) = ' '
-      end if
-    end do
-  end function unquoted
-
-  !> A value written without quotes, e.g. circle2d rather than 'circle2d'.
-  logical function value_is_bare(value)
-    character(len=*), intent(in) :: value
-    character(len=:), allocatable :: s
-    s = shown_value(value)
-    value_is_bare = .true.
-    if (len(s) > 0) value_is_bare = s(1:1) /= '''' .and. s(1:1) /= '"'
-  end function value_is_bare
-
-  !> The name without its index: 'probes' for 'probes(1,2)'.
-  function base_name(name) result(s)
-    character(len=*), intent(in) :: name
-    character(len=:), allocatable :: s
-    integer :: k
-    k = index(name, '(')
-    if (k == 0) k = len(name) + 1
-    s = lower(trim(adjustl(name(1:k - 1))))
-  end function base_name
-
-  !> The blank-delimited word at buf(pos:), at most 40 characters.
-  function word_at(buf, pos) result(s)
-    character(len=*), intent(in) :: buf
-    integer, intent(in) :: pos
-    character(len=:), allocatable :: s
-    integer :: last
-    last = index(buf(pos:), ' ') + pos - 2
-    if (last < pos) last = len(buf)
-    s = buf(pos:min(last, pos + 39))
-  end function word_at
-
-  !> The last position of the name starting at buf(pos:) (pos - 1 if none).
-  integer function name_end_at(buf, pos)
-    character(len=*), intent(in) :: buf
-    integer, intent(in) :: pos
-    name_end_at = pos - 1
-    do while (name_end_at < len(buf))
-      if (.not. is_name_char(buf(name_end_at + 1:name_end_at + 1))) exit
-      name_end_at = name_end_at + 1
-    end do
-  end function name_end_at
-
-  logical function is_letter(ch)
-    character(len=1), intent(in) :: ch
-    is_letter = (ch >= 'a' .and. ch <= 'z') .or. (ch >= 'A' .and. ch <= 'Z')
-  end function is_letter
-
-  logical function is_name_char(ch)
-    character(len=1), intent(in) :: ch
-    is_name_char = is_letter(ch) .or. (ch >= '0' .and. ch <= '9') .or. ch == '_'
-  end function is_name_char
-
-  function lower(s) result(t)
-    character(len=*), intent(in) :: s
-    character(len=len(s)) :: t
-    integer :: i
-    t = s
-    do i = 1, len(s)
-      if (s(i:i) >= 'A' .and. s(i:i) <= 'Z') t(i:i) = achar(iachar(s(i:i)) + 32)
-    end do
-  end function lower
-
-  !> s padded with blanks to at least n characters.
-  function pad(s, n) result(t)
-    character(len=*), intent(in) :: s
-    integer, intent(in) :: n
-    character(len=max(len(s), n)) :: t
-    t = s
-  end function pad
-
-  !> The system's reason from gfortran's "Cannot open file 'x': reason".
-  function os_reason(iomsg) result(s)
-    character(len=*), intent(in) :: iomsg
-    character(len=:), allocatable :: s
-    integer :: k
-    k = index(iomsg, ''': ', back=.true.)
-    s = trim(iomsg(k + 1:))
-    if (k > 0) s = trim(iomsg(k + 3:))
-  end function os_reason
-
-  function int_str_default(k) result(s)
-    integer, intent(in) :: k
-    character(len=:), allocatable :: s
-    character(len=24) :: buf
-    write(buf, '(i0)') k
-    s = trim(buf)
-  end function int_str_default
-
-  function int_str_i8(k) result(s)
-    integer(i8), intent(in) :: k
-    character(len=:), allocatable :: s
-    character(len=24) :: buf
-    write(buf, '(i0)') k
-    s = trim(buf)
-  end function int_str_i8
-
-  !> A bound: a whole number as an integer ("3"), else as real_str.
-  function num_str(x) result(s)
-    real(wp), intent(in) :: x
-    character(len=:), allocatable :: s
-    if (abs(x) < 1.0e15_wp .and. .not. abs(x - aint(x)) > 0) then
-      s = int_str(nint(x, i8))
-    else
-      s = real_str(x)
-    end if
-  end function num_str
-
-  !> "x1, x2, x3".
-  function real_list(x) result(s)
-    real(wp), intent(in) :: x(:)
-    character(len=:), allocatable :: s
-    integer :: k
-    s = ''
-    do k = 1, size(x)
-      if (k > 1) s = s // ', '
-      s = s // real_str(x(k))
-    end do
-  end function real_list
-
-  !> The shortest decimal text that reads back as exactly x: 0.1, 2.0,
-  !> -1.0, 1.0e-12 (so that echoed files reproduce the configuration).
-  function real_str(x) result(s)
-    real(wp), intent(in) :: x
-    character(len=:), allocatable :: s
-    character(len=40) :: buf, fmt
-    character(len=:), allocatable :: digits, int_part, frac
-    real(wp) :: y
-    integer :: d, e, k, ios
-    if (ieee_is_nan(x)) then
-      s = 'NaN'
-      return
-    else if (.not. ieee_is_finite(x)) then
-      s = 'Infinity'
-      if (x < 0) s = '-Infinity'
-      return
-    end if
-    ! The fewest significant digits (d + 1) that give x back; 17 always do.
-    do d = 1, 16
-      write(fmt, '(a,i0,a)') '(es40.', d, 'e3)'
-      write(buf, fmt) x
-      read(buf, *, iostat=ios) y
-      if (ios == 0 .and. transfer(y, 0_i8) == transfer(x, 0_i8)) exit
-    end do
-    buf = adjustl(buf)
-    k = index(buf, 'E')
-    read(buf(k + 1:), *) e
-    digits = ''
-    do d = 1, k - 1
-      if (buf(d:d) >= '0' .and. buf(d:d) <= '9') digits = digits // buf(d:d)
-    end do
-    do while (len(digits) > 1)
-      if (digits(len(digits):len(digits)) /= '0') exit
-      digits = digits(1:len(digits) - 1)
-    end do
-    if (e >= -4 .and. e < 16) then
-      if (e < 0) then
-        int_part = '0'
-        frac = repeat('0', -e - 1) // digits
-      else if (len(digits) <= e + 1) then
-        int_part = digits // repeat('0', e + 1 - len(digits))
-        frac = '0'
-      else
-        int_part = digits(1:e + 1)
-        frac = digits(e + 2:)
-      end if
-      s = int_part // '.' // frac
-    else
-      frac = digits(2:)
-      if (len(frac) == 0) frac = '0'
-      s = digits(1:1) // '.' // frac // 'e' // int_str(e)
-    end if
-    if (buf(1:1) == '-') s = '-' // s
-  end function real_str
 
 end module config

@@ -7,7 +7,7 @@ module simulation
   use particles, only: particles_t, particles_permute
   use memory_usage, only: peak_memory_mb
   use neighbours, only: neighbour_counts
-  use config, only: config_t, config_dim, config_echo
+  use config, only: config_t, config_dim, config_echo, config_case
   use kernels, only: kernel_init, kernel_kind_of
   use eos, only: eos_init, EOS_LINEAR, EOS_TAIT
   use fluid_rhs, only: VISC_NONE, VISC_DELTA, VISC_MONAGHAN, DIFF_NONE, DIFF_MOLTENI, &
@@ -19,7 +19,6 @@ module simulation
   use diagnostics, only: kinetic_energy, total_mass, total_momentum, probe_pressure, &
                          find_bad_particle
   use case_base, only: case_t, case_fields_t
-  use case_factory, only: make_case
   use parallel_env, only: parallel_env_t, par_sum, par_any, par_max, wall_time
   use fileutil, only: make_directory, join_path, rename_file, temp_path, file_exists
   use snapshot_io, only: snapshot_field_t, snapshot_write, snapshot_filename, &
@@ -211,8 +210,8 @@ contains
     dim = config_dim(cfg)
     s%eos = eos_init(merge(EOS_TAIT, EOS_LINEAR, cfg%physics%eos == 'tait'), &
                      cfg%physics%c0, cfg%physics%rho0, cfg%physics%gamma)
-    call make_case(trim(cfg%run%case_name), run%problem)
-    call run%problem%setup(cfg, s%eos, s%parts, dx)
+    call config_case(cfg, run%problem)
+    call run%problem%setup(cfg%particles, cfg%physics, cfg%numerics, s%eos, s%parts, dx)
     call keep_share(env, s%parts)
     if (len_trim(cfg%particles%from) > 0) then
       call read_packed(cfg, env, run%problem, s, dx, ok)

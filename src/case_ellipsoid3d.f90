@@ -1,0 +1,125 @@
+!> The stretching sphere (3D): its group &ellipsoid3d (radius R, A0, the
+!> rates of the initial linear velocity u_k = rates(k) A0 x_k and the
+!> prepared start I1) and the rules on the rates; the set-up, diagnostics
+!> and exact solution are case_stretching's.
+module case_ellipsoid3d
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use kinds, only: wp
+  use input_var, only: var_t, T_REAL, T_LOGICAL, SCALAR, LO_NONE, LO_GT, HI_NONE, CH_NONE
+  use input_text, only: real_str, real_list
+  use case_stretching, only: stretching_t
+  implicit none
+  private
+  public :: ellipsoid3d_t, ellipsoid3d_case
+
+  real(wp), parameter :: RATES_SUM_TOL = 1.0e-12_wp   !< incompressibility of the rates
+
+  type, extends(stretching_t) :: ellipsoid3d_t
+  contains
+    procedure :: vars => ellipsoid3d_vars
+    procedure :: read_group => ellipsoid3d_read_group
+    procedure :: value_text => ellipsoid3d_value_text
+    procedure :: check => ellipsoid3d_check
+    procedure :: max_speed => ellipsoid3d_max_speed
+  end type ellipsoid3d_t
+
+contains
+
+  !> The case at its defaults: R = A0 = 1, rates (-1, -1, 2).
+  function ellipsoid3d_case() result(c)
+    type(ellipsoid3d_t) :: c
+    c%name = 'ellipsoid3d'
+    c%help = 'the stretching sphere (3D)'
+    c%no_packing = ''
+    c%dim = 3
+    c%rates = [-1.0_wp, -1.0_wp, 2.0_wp]
+  end function ellipsoid3d_case
+
+  function ellipsoid3d_vars(self) result(vars)
+    class(ellipsoid3d_t), intent(in) :: self
+    type(var_t), allocatable :: vars(:)
+    vars = [ &
+      var_t(0, 'radius', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
+            'radius R of the initial sphere'), &
+      var_t(0, 'a0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
+            'A0: the unit of the rates'), &
+      var_t(0, 'rates', T_REAL, [3, 0], LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
+            'summing to zero within 1e-12, not all zero', &
+            'initial velocity u_k = rates(k) A0 x_k (rates in units of A0)'), &
+      var_t(0, 'prepared', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
+            'add the compressible part of the start (I1, doc/numerics.md): ' // &
+            'no acoustic mode from P''(0)')]
+    if (.false.) vars(1)%help = self%help
+  end function ellipsoid3d_vars
+
+  subroutine ellipsoid3d_read_group(self, text, ios, iomsg)
+    class(ellipsoid3d_t), intent(inout) :: self
+    character(len=*), intent(in) :: text
+    integer, intent(out) :: ios
+    character(len=*), intent(inout) :: iomsg
+    real(wp) :: radius, a0, rates(3)
+    logical :: prepared
+    namelist /ellipsoid3d/ radius, a0, rates, prepared
+    radius = self%radius
+    a0 = self%a0
+    rates = self%rates
+    prepared = self%prepared
+    read(text, nml=ellipsoid3d, iostat=ios, iomsg=iomsg)
+    if (ios /= 0) return
+    self%radius = radius
+    self%a0 = a0
+    self%rates = rates
+    self%prepared = prepared
+  end subroutine ellipsoid3d_read_group
+
+  function ellipsoid3d_value_text(self, name) result(text)
+    class(ellipsoid3d_t), intent(in) :: self
+    character(len=*), intent(in) :: name
+    character(len=:), allocatable :: text
+    select case (name)
+    case ('radius')
+      text = real_str(self%radius)
+    case ('a0')
+      text = real_str(self%a0)
+    case ('rates')
+      text = real_list(self%rates)
+    case default
+      text = trim(merge('.true. ', '.false.', self%prepared))
+    end select
+  end function ellipsoid3d_value_text
+
+  !> The rates of a divergence-free linear field sum to zero (doc/theory.md X1).
+  subroutine ellipsoid3d_check(self, var, what, hint)
+    class(ellipsoid3d_t), intent(in) :: self
+    character(len=:), allocatable, intent(out) :: var, what, hint
+    character(len=:), allocatable :: head
+    real(wp) :: s
+    var = 'rates'
+    hint = ''
+    head = 'rates = ' // real_list(self%rates)
+    s = sum(self%rates)
+    if (.not. all(ieee_is_finite(self%rates))) then
+      what = head // ' are not all finite'
+    else if (.not. abs(s) <= RATES_SUM_TOL) then
+      what = head // ' sum to ' // real_str(s)
+      hint = ': they must sum to zero (incompressible flow), within ' // &
+             real_str(RATES_SUM_TOL) // ', e.g. -1.0, -1.0, 2.0'
+    else if (.not. maxval(abs(self%rates)) > 0) then
+      what = head // ' are all zero'
+      hint = ': give a non-zero flow, e.g. -1.0, -1.0, 2.0'
+    else
+      var = ''
+      what = ''
+    end if
+  end subroutine ellipsoid3d_check
+
+  !> u_k = rates(k) A0 x_k: max|rates| A0 R on the sphere.
+  subroutine ellipsoid3d_max_speed(self, speed, formula)
+    class(ellipsoid3d_t), intent(in) :: self
+    real(wp), intent(out) :: speed
+    character(len=:), allocatable, intent(out) :: formula
+    speed = maxval(abs(self%rates)) * self%a0 * self%radius
+    formula = '&ellipsoid3d max|rates| a0 radius'
+  end subroutine ellipsoid3d_max_speed
+
+end module case_ellipsoid3d
