@@ -7,7 +7,7 @@ module flow_diagnostics
   use kinds, only: wp, i8
   use particles, only: particles_t
   use kernels, only: kernel_t, kernel_f
-  use fluid_rhs, only: sym_min_eigenvalue
+  use sym3, only: sym_min_eigenvalue
   use parallel_env, only: parallel_env_t, par_sum, par_sum_array
   implicit none
   private

@@ -4,7 +4,8 @@ module solver
   use kinds, only: wp, i8
   use particles, only: particles_t, particles_permute
   use neighbours, only: neighbour_list_t, neighbour_build, cell_sort_permutation
-  use affine_motion, only: affine_fit, sigma_min
+  use affine_motion, only: affine_fit
+  use sym3, only: sigma_min
   use eos, only: eos_t, eos_pressure
   use fluid_rhs, only: rhs_params_t, rhs_renormalisation, rhs_evaluate, rhs_shift, &
                        DIFF_ANTUONO, VISC_NONE, PGRAD_HIGHER_ORDER, DIV_RENORMALISED
