@@ -15,7 +15,8 @@ module simulation
                        DIV_RENORMALISED
   use solver, only: solver_t, solver_init, solver_step, solver_evaluate, solver_time_step, &
                     solver_sync_halo, &
-                    SCHEME_RK4, SCHEME_PC2, BALANCE_PARTICLES, BALANCE_PAIRS
+                    BALANCE_PARTICLES, BALANCE_PAIRS
+  use integrators, only: SCHEME_RK4, SCHEME_PC2
   use diagnostics, only: kinetic_energy, total_mass, total_momentum, probe_pressure, &
                          find_bad_particle
   use case_base, only: case_t, case_fields_t
@@ -251,7 +252,7 @@ contains
     case default
       s%rhs%diffusion = DIFF_MOLTENI
     end select
-    s%scheme = merge(SCHEME_PC2, SCHEME_RK4, cfg%numerics%integrator == 'pc2')
+    s%integ%scheme = merge(SCHEME_PC2, SCHEME_RK4, cfg%numerics%integrator == 'pc2')
     s%cfl = cfg%numerics%cfl
     s%cfl_force = cfg%numerics%cfl_force
     s%cfl_visc = cfg%numerics%cfl_visc

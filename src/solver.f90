@@ -1,5 +1,6 @@
 !> The time stepper: particle state, neighbour list management, stage
-!> evaluation and the integrators (doc/theory.md T1-T3).
+!> evaluation and the time step (doc/theory.md T3); the integrators (T1,
+!> T2) are in `integrators`.
 module solver
   use kinds, only: wp, i8
   use particles, only: particles_t, particles_permute
@@ -12,14 +13,12 @@ module solver
   use parallel_env, only: parallel_env_t, par_max, par_min, wall_time
   use domain, only: domain_t, domain_balance, domain_imbalance, DECOMP_SLAB, DECOMP_METIS
   use halo_exchange, only: halo_t, migrate, halo_build, halo_refresh, halo_refresh_field
+  use integrators, only: integrator_t, integrator_reserve, integrator_stages, integrator_advance
   implicit none
   private
   public :: solver_t, solver_init, solver_step, solver_evaluate, solver_rebuild, &
-            solver_time_step, solver_sync_halo, SCHEME_RK4, SCHEME_PC2, BALANCE_PARTICLES, &
-            BALANCE_PAIRS
+            solver_time_step, solver_sync_halo, BALANCE_PARTICLES, BALANCE_PAIRS
 
-  integer, parameter :: SCHEME_RK4 = 1   !< (T1) classical 4th-order Runge-Kutta
-  integer, parameter :: SCHEME_PC2 = 2   !< (T2) 2-stage predictor-corrector
   integer, parameter :: BALANCE_PARTICLES = 1, BALANCE_PAIRS = 2   !< work measures
 
   type :: solver_t
@@ -27,7 +26,7 @@ module solver
     type(rhs_params_t) :: rhs
     type(eos_t) :: eos
     type(neighbour_list_t) :: nl
-    integer :: scheme = SCHEME_RK4
+    type(integrator_t) :: integ
     real(wp) :: cfl = 1.5_wp, cfl_force = 0.25_wp, cfl_visc = 0.125_wp
     real(wp) :: skin_min = 0      !< smallest skin distance of the list (absolute)
     real(wp) :: skin = 0          !< skin of the current list
@@ -45,8 +44,6 @@ module solver
     real(wp) :: shift_dx = 0
     real(wp), allocatable :: dr(:, :)
     real(wp) :: shift_max = 0
-    real(wp), allocatable :: xs(:, :), us(:, :), rhos(:)   !< state at the start of a step
-    real(wp), allocatable :: xa(:, :), ua(:, :), rhoa(:)   !< RK4 accumulators
     integer :: n_rebuilds = 0
     integer :: n_evaluations = 0
     real(wp) :: umax = 0, amax = 0     !< global maxima at the start of the last step
@@ -91,13 +88,12 @@ contains
     type(solver_t), intent(inout) :: s
     integer :: cap
     cap = size(s%parts%rho)
+    call integrator_reserve(s%integ, cap)
     if (allocated(s%drho)) then
       if (size(s%drho) >= cap) return
-      deallocate(s%drho, s%du, s%grad_rho, s%xs, s%us, s%rhos, s%xa, s%ua, s%rhoa, s%lambda, &
-                 s%lmat, s%dr)
+      deallocate(s%drho, s%du, s%grad_rho, s%lambda, s%lmat, s%dr)
     end if
     allocate(s%drho(cap), s%du(3, cap), s%grad_rho(3, cap))
-    allocate(s%xs(3, cap), s%us(3, cap), s%rhos(cap), s%xa(3, cap), s%ua(3, cap), s%rhoa(cap))
     allocate(s%lambda(1, cap), s%lmat(6, cap), s%dr(3, cap))
     s%drho = 0; s%du = 0; s%grad_rho = 0; s%lambda = 0; s%lmat = 0; s%dr = 0
   end subroutine ensure_capacity
@@ -283,7 +279,7 @@ contains
     real(wp), intent(out) :: dt
     real(wp) :: f(3, 3), v(3, 3), b(3), e_max, w_max, umax, amax, tau, growth, drift, s0, &
                 support
-    integer :: n, dim
+    integer :: n, dim, stage
     n = s%parts%n
     dim = s%parts%dim
     support = s%rhs%kernel%support
@@ -314,62 +310,13 @@ contains
     call solver_time_step(s, env, dt)
     dt = min(dt, dt_limit)
 
-    associate(x => s%parts%x, u => s%parts%u, rho => s%parts%rho, &
-              du => s%du, drho => s%drho)
-      s%xs(:, 1:n) = x(:, 1:n)
-      s%us(:, 1:n) = u(:, 1:n)
-      s%rhos(1:n) = rho(1:n)
-      select case (s%scheme)
-      case (SCHEME_RK4)
-        ! k1 at y0; y1 = y0 + dt/2 k1
-        s%xa(:, 1:n) = s%xs(:, 1:n) + dt / 6 * u(:, 1:n)
-        s%ua(:, 1:n) = s%us(:, 1:n) + dt / 6 * du(:, 1:n)
-        s%rhoa(1:n) = s%rhos(1:n) + dt / 6 * drho(1:n)
-        call half_stage(0.5_wp * dt)
-        ! k2 at y1; y2 = y0 + dt/2 k2
-        call solver_evaluate(s, env)
-        call accumulate(dt / 3)
-        call half_stage(0.5_wp * dt)
-        ! k3 at y2; y3 = y0 + dt k3
-        call solver_evaluate(s, env)
-        call accumulate(dt / 3)
-        call half_stage(dt)
-        ! k4 at y3; y = y0 + dt/6 (k1 + 2 k2 + 2 k3 + k4)
-        call solver_evaluate(s, env)
-        x(:, 1:n) = s%xa(:, 1:n) + dt / 6 * u(:, 1:n)
-        u(:, 1:n) = s%ua(:, 1:n) + dt / 6 * du(:, 1:n)
-        rho(1:n) = s%rhoa(1:n) + dt / 6 * drho(1:n)
-      case (SCHEME_PC2)
-        ! predictor to the half step, derivatives there, then the corrector;
-        ! positions advance with the mean of the old and new velocities
-        call half_stage(0.5_wp * dt)
-        call solver_evaluate(s, env)
-        rho(1:n) = s%rhos(1:n) + dt * drho(1:n)
-        u(:, 1:n) = s%us(:, 1:n) + dt * du(:, 1:n)
-        x(:, 1:n) = s%xs(:, 1:n) + 0.5_wp * dt * (s%us(:, 1:n) + u(:, 1:n))
-      end select
-    end associate
+    do stage = 1, integrator_stages(s%integ)
+      if (stage > 1) call solver_evaluate(s, env)
+      call integrator_advance(s%integ, stage, dt, n, s%parts%x, s%parts%u, s%parts%rho, &
+                              s%du, s%drho)
+    end do
     s%parts%p(1:n) = eos_pressure(s%eos, s%parts%rho(1:n))
     if (s%shifting) call shift_particles(s, env, dt)
-
-  contains
-
-    !> y = y0 + tau k, with k = (u, du, drho) of the current stage; x first,
-    !> while u still holds the stage velocity.
-    subroutine half_stage(tau)
-      real(wp), intent(in) :: tau
-      s%parts%x(:, 1:n) = s%xs(:, 1:n) + tau * s%parts%u(:, 1:n)
-      s%parts%u(:, 1:n) = s%us(:, 1:n) + tau * s%du(:, 1:n)
-      s%parts%rho(1:n) = s%rhos(1:n) + tau * s%drho(1:n)
-    end subroutine half_stage
-
-    subroutine accumulate(w)
-      real(wp), intent(in) :: w
-      s%xa(:, 1:n) = s%xa(:, 1:n) + w * s%parts%u(:, 1:n)
-      s%ua(:, 1:n) = s%ua(:, 1:n) + w * s%du(:, 1:n)
-      s%rhoa(1:n) = s%rhoa(1:n) + w * s%drho(1:n)
-    end subroutine accumulate
-
   end subroutine solver_step
 
   !> (E8) Particle shifting after a step of dt: the halo copies are brought
