@@ -186,7 +186,7 @@ contains
         end if
         ! a run restarted from this snapshot starts with a fresh list: so
         ! does this one, and both go on identically
-        s%force_rebuild = .true.
+        s%lm%force_rebuild = .true.
       end if
       if (wall_time() - wall_last >= cfg%run%progress_interval .or. done) then
         wall_last = wall_time()
@@ -256,7 +256,7 @@ contains
     s%cfl = cfg%numerics%cfl
     s%cfl_force = cfg%numerics%cfl_force
     s%cfl_visc = cfg%numerics%cfl_visc
-    s%skin_min = cfg%numerics%skin * s%rhs%kernel%h
+    s%lm%skin_min = cfg%numerics%skin * s%rhs%kernel%h
     s%decomposition = merge(DECOMP_METIS, DECOMP_SLAB, cfg%parallel%decomposition == 'metis')
     s%balance = merge(BALANCE_PAIRS, BALANCE_PARTICLES, cfg%parallel%balance == 'pairs')
     s%imbalance_threshold = cfg%parallel%imbalance_threshold
@@ -271,7 +271,7 @@ contains
       call pack_ball(s, env, run%pack, run%pack_report)
       call run%problem%initial_state(s%eos, dx, s%parts)
       ! the run starts afresh on the packed particles
-      s%n_rebuilds = 0
+      s%lm%n_rebuilds = 0
       s%n_balances = 0
       s%n_migrated = 0
       s%comm_time = 0
@@ -465,7 +465,7 @@ contains
     real(wp), intent(in) :: dx, dt
     real(wp) :: listed, in_range
     integer(i8) :: n_listed, n_in_range
-    call neighbour_counts(s%nl, s%parts%n, s%parts%x, s%rhs%kernel%support**2, n_listed, &
+    call neighbour_counts(s%lm%nl, s%parts%n, s%parts%x, s%rhs%kernel%support**2, n_listed, &
                           n_in_range)
     listed = par_sum(env, real(n_listed, wp)) / max(run%n_global, 1_i8)
     in_range = par_sum(env, real(n_in_range, wp)) / max(run%n_global, 1_i8)
@@ -521,7 +521,7 @@ contains
     comm = par_max(env, s%comm_time)
     mem_max = par_max(env, peak_memory_mb())
     mem_total = par_sum(env, peak_memory_mb())
-    call neighbour_counts(s%nl, s%parts%n, s%parts%x, s%rhs%kernel%support**2, n_listed, &
+    call neighbour_counts(s%lm%nl, s%parts%n, s%parts%x, s%rhs%kernel%support**2, n_listed, &
                           n_in_range)
     listed = par_sum(env, real(n_listed, wp)) / max(run%n_global, 1_i8)
     in_range = par_sum(env, real(n_in_range, wp)) / max(run%n_global, 1_i8)
@@ -531,8 +531,8 @@ contains
       real(run%n_global, wp) * steps / max(wall, 1e-9_wp), ' particle-steps/s on ', &
       env%nranks, ' rank(s)'
     write(output_unit, '(a,i0,a,i0,a,i0,a,f6.2,a,f9.1,a,f9.1,a)') &
-      '  right-hand sides ', s%n_evaluations, ', list rebuilds ', s%n_rebuilds, &
-      ', snapshots ', run%n_snapshots, ' (skin ', s%skin / s%rhs%kernel%h, &
+      '  right-hand sides ', s%n_evaluations, ', list rebuilds ', s%lm%n_rebuilds, &
+      ', snapshots ', run%n_snapshots, ' (skin ', s%lm%skin / s%rhs%kernel%h, &
       ' h), peak memory ', mem_max, ' MB per rank (max), ', mem_total, ' MB in all'
     write(output_unit, '(a,f8.1,a,f8.1,a)') '  neighbours per particle: ', listed, &
       ' in the list, ', in_range, ' within the kernel support'

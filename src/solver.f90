@@ -4,13 +4,12 @@
 module solver
   use kinds, only: wp, i8
   use particles, only: particles_t, particles_permute
-  use neighbours, only: neighbour_list_t, neighbour_build, cell_sort_permutation
-  use affine_motion, only: affine_fit
-  use sym3, only: sigma_min
+  use neighbours, only: cell_sort_permutation
+  use list_manager, only: list_manager_t, list_radius, list_check, list_build, list_pair_work
   use eos, only: eos_t, eos_pressure
   use fluid_rhs, only: rhs_params_t, rhs_renormalisation, rhs_evaluate, rhs_shift, &
                        DIFF_ANTUONO, VISC_NONE, PGRAD_HIGHER_ORDER, DIV_RENORMALISED
-  use parallel_env, only: parallel_env_t, par_max, par_min, wall_time
+  use parallel_env, only: parallel_env_t, par_max, wall_time
   use domain, only: domain_t, domain_balance, domain_imbalance, DECOMP_SLAB, DECOMP_METIS
   use halo_exchange, only: halo_t, migrate, halo_build, halo_refresh, halo_refresh_field
   use integrators, only: integrator_t, integrator_reserve, integrator_stages, integrator_advance
@@ -25,11 +24,9 @@ module solver
     type(particles_t) :: parts
     type(rhs_params_t) :: rhs
     type(eos_t) :: eos
-    type(neighbour_list_t) :: nl
+    type(list_manager_t) :: lm
     type(integrator_t) :: integ
     real(wp) :: cfl = 1.5_wp, cfl_force = 0.25_wp, cfl_visc = 0.125_wp
-    real(wp) :: skin_min = 0      !< smallest skin distance of the list (absolute)
-    real(wp) :: skin = 0          !< skin of the current list
     real(wp) :: nu = 0            !< kinematic viscosity equivalent to the artificial one
     real(wp), allocatable :: drho(:), du(:, :), grad_rho(:, :)
     !> (E9) the free-surface indicator lambda_i from the first pass (one
@@ -44,7 +41,6 @@ module solver
     real(wp) :: shift_dx = 0
     real(wp), allocatable :: dr(:, :)
     real(wp) :: shift_max = 0
-    integer :: n_rebuilds = 0
     integer :: n_evaluations = 0
     real(wp) :: umax = 0, amax = 0     !< global maxima at the start of the last step
     real(wp) :: dt_cfl = 0, dt_force = 0, dt_visc = 0  !< the limits of the last step
@@ -58,7 +54,6 @@ module solver
     integer :: n_balances = 0
     integer(i8) :: n_migrated = 0              !< particles that changed rank
     real(wp) :: comm_time = 0                  !< wall time in halo exchanges and migration
-    logical :: force_rebuild = .false.         !< rebuild at the start of the next step
     !> L_i and lambda_i of the first pass at the first stage of a step only,
     !> kept for its other stages (numerics.renormalise = 'step'); without
     !> the Antuono diffusion, whose density gradient changes with rho
@@ -74,7 +69,7 @@ contains
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
     call ensure_capacity(s)
-    s%skin = s%skin_min
+    s%lm%skin = s%lm%skin_min
     ! nu = alpha h c0 / (2 (dim + 2)) for the delta-SPH form (E5: alpha h c0/8 in 2D)
     s%nu = 0
     if (s%rhs%viscosity /= VISC_NONE) &
@@ -109,17 +104,17 @@ contains
     type(parallel_env_t), intent(in) :: env
     integer, allocatable :: perm(:)
     real(wp), allocatable :: w(:)
-    real(wp) :: radius, origin(3), t0, imbalance
-    integer :: k, ntot, n_left
-    radius = s%rhs%kernel%support + s%skin
+    real(wp) :: radius, t0, imbalance
+    integer :: ntot, n_left
+    radius = list_radius(s%lm, s%rhs%kernel%support)
     associate(pt => s%parts)
       ! work of each owned particle: 1, or its number of pairs in the last list
       allocate(w(pt%n))
       w = 1
-      if (s%balance == BALANCE_PAIRS .and. s%nl%n_rows > 0) call pair_work(s, w)
+      if (s%balance == BALANCE_PAIRS .and. s%lm%nl%n_rows > 0) call list_pair_work(s%lm, w)
       ! collective: evaluated on every rank, never inside a short-circuit
       imbalance = domain_imbalance(env, sum(w))
-      if (s%n_rebuilds == 0 .or. imbalance > 1 + s%imbalance_threshold) then
+      if (s%lm%n_rebuilds == 0 .or. imbalance > 1 + s%imbalance_threshold) then
         call domain_balance(s%dom, env, s%decomposition, pt%dim, pt%n, pt%x, w, radius)
         s%n_balances = s%n_balances + 1
       end if
@@ -135,38 +130,14 @@ contains
       s%comm_time = s%comm_time + (wall_time() - t0)
       call ensure_capacity(s)
       ntot = pt%n + pt%n_halo
-      do k = 1, 3
-        origin(k) = huge(1.0_wp)
-        if (pt%n > 0) origin(k) = minval(pt%x(k, 1:pt%n))
-        origin(k) = par_min(env, origin(k))
-      end do
-      call neighbour_build(s%nl, pt%dim, pt%n, ntot, pt%x, pt%id, radius, origin)
+      call list_build(s%lm, env, pt%dim, pt%n, ntot, pt%x, pt%id, s%rhs%kernel%support)
       deallocate(w)
       allocate(w(pt%n))
       w = 1
-      if (s%balance == BALANCE_PAIRS) call pair_work(s, w)
+      if (s%balance == BALANCE_PAIRS) call list_pair_work(s%lm, w)
       s%imbalance = domain_imbalance(env, sum(w))
     end associate
-    s%n_rebuilds = s%n_rebuilds + 1
   end subroutine solver_rebuild
-
-  !> Work of each owned particle as its number of listed pairs (a pair of
-  !> two owned particles counts for both).
-  subroutine pair_work(s, w)
-    type(solver_t), intent(in) :: s
-    real(wp), intent(inout) :: w(:)
-    integer :: kk, i, j
-    integer(i8) :: k
-    w = 0
-    do kk = 1, s%nl%n_rows
-      i = s%nl%row(kk)
-      do k = s%nl%start(kk), s%nl%start(kk + 1) - 1
-        j = s%nl%nbr(k)
-        if (i <= size(w)) w(i) = w(i) + 1
-        if (j <= size(w)) w(j) = w(j) + 1
-      end do
-    end do
-  end subroutine pair_work
 
   !> One right-hand-side evaluation at the current state: halo copies
   !> refreshed, pressure from the equation of state, then the optional
@@ -194,13 +165,13 @@ contains
       pt%p(1:ntot) = eos_pressure(s%eos, pt%rho(1:ntot))
       if (first_pass .and. .not. fresh) then
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
-                          s%nl, s%drho, s%du, s%lambda(1, :), s%lmat)
+                          s%lm%nl, s%drho, s%du, s%lambda(1, :), s%lmat)
       else if (first_pass) then
         if (antuono) then
-          call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%nl, &
+          call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%lm%nl, &
                                    s%lambda(1, :), lmat=s%lmat, grad_rho=s%grad_rho)
         else
-          call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%nl, &
+          call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%lm%nl, &
                                    s%lambda(1, :), lmat=s%lmat)
         end if
         t0 = wall_time()
@@ -209,10 +180,10 @@ contains
         if (corrected) call halo_refresh_field(s%halo, env, pt%n, s%lambda)
         s%comm_time = s%comm_time + (wall_time() - t0)
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
-                          s%nl, s%drho, s%du, s%lambda(1, :), s%lmat)
+                          s%lm%nl, s%drho, s%du, s%lambda(1, :), s%lmat)
       else
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
-                          s%nl, s%drho, s%du)
+                          s%lm%nl, s%drho, s%du)
       end if
     end associate
     s%n_evaluations = s%n_evaluations + 1
@@ -255,53 +226,20 @@ contains
     dt = min(s%dt_cfl, s%dt_force, s%dt_visc)
   end subroutine solver_time_step
 
-  !> Advances the state by one step of at most dt_limit; returns the dt taken.
-  !> The list is rebuilt unless it surely holds every pair that comes within
-  !> the kernel support during the step (doc/numerics.md, "When the list is
-  !> rebuilt").  Since its build at x0, x = F x0 + b + e (affine_motion), so
-  !> unlisted pairs are at least s0 = sigma_min(F) r_list - 2 e_max apart.
-  !> Within the step (dt <= tau = cfl h/(c0 + Umax)) the velocities
-  !> u = V x + c + w move a pair at separation s apart by at most
-  !> tau (|V| s + 2 w_max) + 4 tau^2 a_max (the stage velocities differ from
-  !> u by at most dt a_max; 2 a_max allows the acceleration to double), so
-  !> the list stays valid while
-  !>   s0 (1 - tau |V|) - 2 tau w_max - 4 tau^2 a_max > support.
-  !> A rebuild resets s0 to r_list and takes the skin that covers a few such
-  !> steps (at least numerics.skin).  The fits of F and V use sums that do
-  !> not depend on the decomposition, so every rank count rebuilds at the
-  !> same steps.  A rebuild is also done when s%force_rebuild is set (after
-  !> each snapshot, so that a run restarted from it goes through the same
-  !> list history).
+  !> Advances the state by one step of at most dt_limit; returns the dt taken:
+  !> the list rebuilt unless it holds every pair the step can bring within
+  !> the support (list_check), the first stage evaluated, the time step
+  !> (T3), the remaining stages of the integrator, then the pressure and the
+  !> optional shifting (E8).
   subroutine solver_step(s, env, dt_limit, dt)
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
     real(wp), intent(in) :: dt_limit
     real(wp), intent(out) :: dt
-    real(wp) :: f(3, 3), v(3, 3), b(3), e_max, w_max, umax, amax, tau, growth, drift, s0, &
-                support
-    integer :: n, dim, stage
-    n = s%parts%n
-    dim = s%parts%dim
-    support = s%rhs%kernel%support
-    call affine_fit(env, dim, n, s%nl%x_ref, s%parts%x, f, b, e_max)
-    call affine_fit(env, dim, n, s%parts%x, s%parts%u, v, b, w_max)
-    umax = 0
-    amax = 0
-    if (n > 0) then
-      umax = sqrt(maxval(sum(s%parts%u(:, 1:n)**2, dim=1)))
-      amax = sqrt(maxval(sum(s%du(:, 1:n)**2, dim=1)))
-    end if
-    umax = par_max(env, umax)
-    amax = par_max(env, amax)
-    tau = s%cfl * s%rhs%kernel%h / (s%rhs%c0 + umax)
-    growth = tau * sqrt(sum(v**2))
-    drift = 2 * tau * w_max + 4 * tau**2 * amax
-    s0 = sigma_min(dim, f) * (support + s%skin) - 2 * e_max
-    if (s0 * (1 - growth) - drift <= support .or. s%force_rebuild) then
-      s%skin = max(s%skin_min, 2.2_wp * (support * growth + drift) / max(1 - growth, 0.5_wp))
+    integer :: n, stage
+    if (list_check(s%lm, env, s%parts%dim, s%parts%n, s%parts%x, s%parts%u, s%du, &
+                   s%rhs%kernel%support, s%cfl * s%rhs%kernel%h, s%rhs%c0)) &
       call solver_rebuild(s, env)
-      s%force_rebuild = .false.
-    end if
     n = s%parts%n      ! migration may have changed it
 
     s%first_stage = .true.
@@ -344,7 +282,7 @@ contains
     ntot = n + s%parts%n_halo
     coef = (dt * (s%rhs%c0 + s%umax) / h) * (s%umax / s%rhs%c0) * (2 * h)**2
     allocate(lam(ntot))
-    call rhs_shift(s%rhs, n, ntot, s%parts%x, s%parts%rho, s%parts%m, s%nl, coef, &
+    call rhs_shift(s%rhs, n, ntot, s%parts%x, s%parts%rho, s%parts%m, s%lm%nl, coef, &
                    s%shift_dx, s%dr, lam)
     s%parts%x(:, 1:n) = s%parts%x(:, 1:n) + s%dr(:, 1:n)
     dmax = 0
