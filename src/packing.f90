@@ -202,7 +202,7 @@ contains
         rep%rebuilds = rep%rebuilds + 1
         moved = 0
       end if
-      call halo_refresh(s%halo, env, s%parts)
+      call halo_refresh(s%dc%halo, env, s%parts)
       n = s%parts%n
       ntot = n + s%parts%n_halo
       ! work arrays as large as the particle arrays, which migration and

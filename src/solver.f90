@@ -9,16 +9,14 @@ module solver
   use eos, only: eos_t, eos_pressure
   use fluid_rhs, only: rhs_params_t, rhs_renormalisation, rhs_evaluate, rhs_shift, &
                        DIFF_ANTUONO, VISC_NONE, PGRAD_HIGHER_ORDER, DIV_RENORMALISED
-  use parallel_env, only: parallel_env_t, par_max, wall_time
-  use domain, only: domain_t, domain_balance, domain_imbalance, DECOMP_SLAB, DECOMP_METIS
-  use halo_exchange, only: halo_t, migrate, halo_build, halo_refresh, halo_refresh_field
+  use parallel_env, only: parallel_env_t, par_max
+  use decomposition, only: decomposition_t, decomp_redistribute, decomp_halo_build, &
+                           decomp_refresh, decomp_refresh_field, decomp_measure, BALANCE_PAIRS
   use integrators, only: integrator_t, integrator_reserve, integrator_stages, integrator_advance
   implicit none
   private
   public :: solver_t, solver_init, solver_step, solver_evaluate, solver_rebuild, &
-            solver_time_step, solver_sync_halo, BALANCE_PARTICLES, BALANCE_PAIRS
-
-  integer, parameter :: BALANCE_PARTICLES = 1, BALANCE_PAIRS = 2   !< work measures
+            solver_time_step, solver_sync_halo
 
   type :: solver_t
     type(particles_t) :: parts
@@ -44,16 +42,7 @@ module solver
     integer :: n_evaluations = 0
     real(wp) :: umax = 0, amax = 0     !< global maxima at the start of the last step
     real(wp) :: dt_cfl = 0, dt_force = 0, dt_visc = 0  !< the limits of the last step
-    ! domain decomposition
-    type(domain_t) :: dom
-    type(halo_t) :: halo
-    integer :: decomposition = DECOMP_SLAB
-    integer :: balance = BALANCE_PARTICLES
-    real(wp) :: imbalance_threshold = 0.1_wp   !< re-balance when max/mean work exceeds 1 + this
-    real(wp) :: imbalance = 1                  !< max/mean work after the last rebuild
-    integer :: n_balances = 0
-    integer(i8) :: n_migrated = 0              !< particles that changed rank
-    real(wp) :: comm_time = 0                  !< wall time in halo exchanges and migration
+    type(decomposition_t) :: dc
     !> L_i and lambda_i of the first pass at the first stage of a step only,
     !> kept for its other stages (numerics.renormalise = 'step'); without
     !> the Antuono diffusion, whose density gradient changes with rho
@@ -93,50 +82,42 @@ contains
     s%drho = 0; s%du = 0; s%grad_rho = 0; s%lambda = 0; s%lmat = 0; s%dr = 0
   end subroutine ensure_capacity
 
-  !> Re-balances the decomposition when needed (first call, or imbalance
+  !> Re-balances the decomposition when needed (first build, or imbalance
   !> above the threshold), migrates particles to their owners, sorts the
   !> owned ones by cell (memory locality), brings in the halo copies within
-  !> the list radius and rebuilds the neighbour list on the grid aligned on
-  !> the global lower corner of the particles, which every rank computes
-  !> alike.
+  !> the list radius and rebuilds the neighbour list (list_build).
   subroutine solver_rebuild(s, env)
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
     integer, allocatable :: perm(:)
     real(wp), allocatable :: w(:)
-    real(wp) :: radius, t0, imbalance
-    integer :: ntot, n_left
+    real(wp) :: radius
+    integer :: ntot
     radius = list_radius(s%lm, s%rhs%kernel%support)
     associate(pt => s%parts)
-      ! work of each owned particle: 1, or its number of pairs in the last list
-      allocate(w(pt%n))
-      w = 1
-      if (s%balance == BALANCE_PAIRS .and. s%lm%nl%n_rows > 0) call list_pair_work(s%lm, w)
-      ! collective: evaluated on every rank, never inside a short-circuit
-      imbalance = domain_imbalance(env, sum(w))
-      if (s%lm%n_rebuilds == 0 .or. imbalance > 1 + s%imbalance_threshold) then
-        call domain_balance(s%dom, env, s%decomposition, pt%dim, pt%n, pt%x, w, radius)
-        s%n_balances = s%n_balances + 1
-      end if
-      t0 = wall_time()
-      call migrate(env, s%dom, pt, n_left)
-      s%n_migrated = s%n_migrated + n_left
-      s%comm_time = s%comm_time + (wall_time() - t0)
+      call work(w)
+      call decomp_redistribute(s%dc, env, pt, w, radius, s%lm%n_rebuilds == 0)
       allocate(perm(pt%n))
       call cell_sort_permutation(pt%dim, pt%n, pt%x, radius, perm)
       call particles_permute(pt, perm)
-      t0 = wall_time()
-      call halo_build(s%halo, env, s%dom, pt, radius)
-      s%comm_time = s%comm_time + (wall_time() - t0)
+      call decomp_halo_build(s%dc, env, pt, radius)
       call ensure_capacity(s)
       ntot = pt%n + pt%n_halo
       call list_build(s%lm, env, pt%dim, pt%n, ntot, pt%x, pt%id, s%rhs%kernel%support)
-      deallocate(w)
-      allocate(w(pt%n))
-      w = 1
-      if (s%balance == BALANCE_PAIRS) call list_pair_work(s%lm, w)
-      s%imbalance = domain_imbalance(env, sum(w))
+      call work(w)
+      call decomp_measure(s%dc, env, w)
     end associate
+
+  contains
+
+    !> Work of each owned particle: 1, or its number of pairs in the list.
+    subroutine work(w)
+      real(wp), allocatable, intent(out) :: w(:)
+      allocate(w(s%parts%n))
+      w = 1
+      if (s%dc%balance == BALANCE_PAIRS .and. s%lm%nl%n_rows > 0) call list_pair_work(s%lm, w)
+    end subroutine work
+
   end subroutine solver_rebuild
 
   !> One right-hand-side evaluation at the current state: halo copies
@@ -150,7 +131,6 @@ contains
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
     integer :: ntot
-    real(wp) :: t0
     logical :: antuono, corrected, first_pass, fresh
     antuono = s%rhs%diffusion == DIFF_ANTUONO
     corrected = s%rhs%pressure_gradient == PGRAD_HIGHER_ORDER
@@ -158,9 +138,7 @@ contains
     ! the stage's own L_i, or (renormalise_per_step) the step's first one
     fresh = antuono .or. s%first_stage .or. .not. s%renormalise_per_step
     associate(pt => s%parts)
-      t0 = wall_time()
-      call halo_refresh(s%halo, env, pt)
-      s%comm_time = s%comm_time + (wall_time() - t0)
+      call decomp_refresh(s%dc, env, pt)
       ntot = pt%n + pt%n_halo
       pt%p(1:ntot) = eos_pressure(s%eos, pt%rho(1:ntot))
       if (first_pass .and. .not. fresh) then
@@ -174,11 +152,9 @@ contains
           call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%lm%nl, &
                                    s%lambda(1, :), lmat=s%lmat)
         end if
-        t0 = wall_time()
-        if (antuono) call halo_refresh_field(s%halo, env, pt%n, s%grad_rho)
+        if (antuono) call decomp_refresh_field(s%dc, env, pt%n, s%grad_rho)
         ! p = 0 on free-surface partners: their lambda is needed too
-        if (corrected) call halo_refresh_field(s%halo, env, pt%n, s%lambda)
-        s%comm_time = s%comm_time + (wall_time() - t0)
+        if (corrected) call decomp_refresh_field(s%dc, env, pt%n, s%lambda)
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
                           s%lm%nl, s%drho, s%du, s%lambda(1, :), s%lmat)
       else
@@ -195,7 +171,7 @@ contains
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
     integer :: ntot
-    call halo_refresh(s%halo, env, s%parts)
+    call decomp_refresh(s%dc, env, s%parts)
     ntot = s%parts%n + s%parts%n_halo
     s%parts%p(s%parts%n + 1:ntot) = eos_pressure(s%eos, s%parts%rho(s%parts%n + 1:ntot))
   end subroutine solver_sync_halo
@@ -272,13 +248,11 @@ contains
     type(parallel_env_t), intent(in) :: env
     real(wp), intent(in) :: dt
     real(wp), allocatable :: lam(:)
-    real(wp) :: h, coef, t0, dmax
+    real(wp) :: h, coef, dmax
     integer :: n, ntot
     n = s%parts%n
     h = s%rhs%kernel%h
-    t0 = wall_time()
-    call halo_refresh(s%halo, env, s%parts)
-    s%comm_time = s%comm_time + (wall_time() - t0)
+    call decomp_refresh(s%dc, env, s%parts)
     ntot = n + s%parts%n_halo
     coef = (dt * (s%rhs%c0 + s%umax) / h) * (s%umax / s%rhs%c0) * (2 * h)**2
     allocate(lam(ntot))
