@@ -1,8 +1,11 @@
-!> The time stepper: particle state, neighbour list management, stage
-!> evaluation and the time step (doc/theory.md T3); the integrators (T1,
-!> T2) are in `integrators`.
+!> The time stepper: the particle state, the evaluation of a stage (halo
+!> refresh, pressure, the passes of the right-hand side), the time step
+!> (doc/theory.md T3), the step and the shifting (E8).  Its parts by
+!> concern: the neighbour list and when to rebuild it in list_manager, the
+!> domain decomposition in decomposition, the integrators (T1, T2) in
+!> integrators.
 module solver
-  use kinds, only: wp, i8
+  use kinds, only: wp
   use particles, only: particles_t, particles_permute
   use neighbours, only: cell_sort_permutation
   use list_manager, only: list_manager_t, list_radius, list_check, list_build, list_pair_work
@@ -22,8 +25,9 @@ module solver
     type(particles_t) :: parts
     type(rhs_params_t) :: rhs
     type(eos_t) :: eos
-    type(list_manager_t) :: lm
-    type(integrator_t) :: integ
+    type(list_manager_t) :: lm        !< the neighbour list, its skin and validity test
+    type(integrator_t) :: integ       !< the scheme and its work arrays
+    type(decomposition_t) :: dc       !< domain, halo and balancing
     real(wp) :: cfl = 1.5_wp, cfl_force = 0.25_wp, cfl_visc = 0.125_wp
     real(wp) :: nu = 0            !< kinematic viscosity equivalent to the artificial one
     real(wp), allocatable :: drho(:), du(:, :), grad_rho(:, :)
@@ -42,7 +46,6 @@ module solver
     integer :: n_evaluations = 0
     real(wp) :: umax = 0, amax = 0     !< global maxima at the start of the last step
     real(wp) :: dt_cfl = 0, dt_force = 0, dt_visc = 0  !< the limits of the last step
-    type(decomposition_t) :: dc
     !> L_i and lambda_i of the first pass at the first stage of a step only,
     !> kept for its other stages (numerics.renormalise = 'step'); without
     !> the Antuono diffusion, whose density gradient changes with rho
