@@ -28,8 +28,9 @@ contains
     r = support + lm%skin
   end function list_radius
 
-  !> Whether the list must be rebuilt before a step: unless it surely holds
-  !> every pair that comes within the kernel support during the step.
+  !> rebuild: whether the list must be rebuilt before a step (collective):
+  !> unless it surely holds every pair that comes within the kernel support
+  !> during the step.
   !> Since its build at x0, x = F x0 + b + e (affine_motion), so unlisted
   !> pairs are at least s0 = sigma_min(F) r_list - 2 e_max apart.  Within
   !> the step (dt <= tau = cfl_h/(c0 + Umax), cfl_h = cfl h) the velocities
@@ -44,11 +45,12 @@ contains
   !> steps.  A rebuild is also due when lm%force_rebuild is set (after each
   !> snapshot, so that a run restarted from it goes through the same list
   !> history).  When due, the skin of the next build is set here.
-  logical function list_check(lm, env, dim, n, x, u, du, support, cfl_h, c0) result(rebuild)
+  subroutine list_check(lm, env, dim, n, x, u, du, support, cfl_h, c0, rebuild)
     type(list_manager_t), intent(inout) :: lm
     type(parallel_env_t), intent(in) :: env
     integer, intent(in) :: dim, n
     real(wp), intent(in) :: x(:, :), u(:, :), du(:, :), support, cfl_h, c0
+    logical, intent(out) :: rebuild
     real(wp) :: f(3, 3), v(3, 3), b(3), e_max, w_max, umax, amax, tau, growth, drift, s0
     call affine_fit(env, dim, n, lm%nl%x_ref, x, f, b, e_max)
     call affine_fit(env, dim, n, x, u, v, b, w_max)
@@ -69,7 +71,7 @@ contains
       lm%skin = max(lm%skin_min, 2.2_wp * (support * growth + drift) / max(1 - growth, 0.5_wp))
       lm%force_rebuild = .false.
     end if
-  end function list_check
+  end subroutine list_check
 
   !> Builds the list of radius list_radius on the grid aligned on the
   !> global lower corner of the owned particles, which every rank computes

@@ -216,9 +216,10 @@ contains
     real(wp), intent(in) :: dt_limit
     real(wp), intent(out) :: dt
     integer :: n, stage
-    if (list_check(s%lm, env, s%parts%dim, s%parts%n, s%parts%x, s%parts%u, s%du, &
-                   s%rhs%kernel%support, s%cfl * s%rhs%kernel%h, s%rhs%c0)) &
-      call solver_rebuild(s, env)
+    logical :: rebuild
+    call list_check(s%lm, env, s%parts%dim, s%parts%n, s%parts%x, s%parts%u, s%du, &
+                    s%rhs%kernel%support, s%cfl * s%rhs%kernel%h, s%rhs%c0, rebuild)
+    if (rebuild) call solver_rebuild(s, env)
     n = s%parts%n      ! migration may have changed it
 
     s%first_stage = .true.
