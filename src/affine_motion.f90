@@ -6,7 +6,7 @@
 !> every pair closer than r_list.  If now x_i = F x0_i + b + e_i with
 !> |e_i| <= e_max, an unlisted pair (|x0_i - x0_j| > r_list) is at least
 !>   s_min = sigma_min(F) r_list - 2 e_max
-!> apart, sigma_min the smallest singular value of F.  The usual test
+!> apart, sigma_min the smallest singular value of F (sym3).  The usual test
 !> (displacement below half the skin) is the case F = I, b = 0; fitting F
 !> and b makes translations, rotations and uniform strains cost nothing,
 !> which is most of the motion of the prototype problems.  Every quantity
@@ -16,9 +16,10 @@
 module affine_motion
   use kinds, only: wp
   use parallel_env, only: parallel_env_t, par_sum_exact, par_max
+  use sym3, only: invert_spd
   implicit none
   private
-  public :: affine_fit, sigma_min
+  public :: affine_fit
 
 contains
 
@@ -78,76 +79,5 @@ contains
     end do
     e_max = par_max(env, sqrt(e_max))
   end subroutine affine_fit
-
-  !> Inverse of the leading dim x dim block of a symmetric positive matrix
-  !> by Gauss-Jordan elimination; false if it is (numerically) singular.
-  logical function invert_spd(dim, c, inv) result(ok)
-    integer, intent(in) :: dim
-    real(wp), intent(in) :: c(3, 3)
-    real(wp), intent(out) :: inv(3, 3)
-    real(wp) :: w(3, 6), piv, scale
-    integer :: k, l
-    inv = 0
-    ok = .false.
-    scale = maxval([(abs(c(k, k)), k = 1, dim)])
-    if (.not. scale > 0) return
-    w = 0
-    w(1:dim, 1:dim) = c(1:dim, 1:dim)
-    do k = 1, dim
-      w(k, 3 + k) = 1
-    end do
-    do k = 1, dim
-      ! positive definite: the diagonal pivots stay positive without row exchanges
-      piv = w(k, k)
-      if (piv <= 1e-12_wp * scale) return
-      w(k, :) = w(k, :) / piv
-      do l = 1, dim
-        if (l /= k) w(l, :) = w(l, :) - w(l, k) * w(k, :)
-      end do
-    end do
-    inv(1:dim, 1:dim) = w(1:dim, 4:3 + dim)
-    ok = .true.
-  end function invert_spd
-
-  !> Smallest singular value of the leading dim x dim block of f: the
-  !> square root of the smallest eigenvalue of f^T f, by cyclic Jacobi
-  !> rotations (converged to rounding in a few sweeps for 3 x 3).
-  function sigma_min(dim, f) result(smin)
-    integer, intent(in) :: dim
-    real(wp), intent(in) :: f(3, 3)
-    real(wp) :: smin
-    real(wp) :: g(3, 3), th, c, s, t, gpp, gqq, gpq
-    integer :: sweep, p, q, k
-    g = 0
-    g(1:dim, 1:dim) = matmul(transpose(f(1:dim, 1:dim)), f(1:dim, 1:dim))
-    do sweep = 1, 50
-      if (sum([((g(p, q)**2, q = p + 1, dim), p = 1, dim)]) <= &
-          1e-30_wp * sum([(g(p, p)**2, p = 1, dim)])) exit
-      do p = 1, dim - 1
-        do q = p + 1, dim
-          gpq = g(p, q)
-          if (abs(gpq) <= tiny(gpq)) cycle
-          gpp = g(p, p)
-          gqq = g(q, q)
-          th = (gqq - gpp) / (2 * gpq)
-          t = sign(1.0_wp, th) / (abs(th) + sqrt(th**2 + 1))
-          c = 1 / sqrt(t**2 + 1)
-          s = t * c
-          ! g <- J^T g J with the rotation J in the (p, q) plane
-          do k = 1, dim
-            th = g(k, p)
-            g(k, p) = c * th - s * g(k, q)
-            g(k, q) = s * th + c * g(k, q)
-          end do
-          do k = 1, dim
-            th = g(p, k)
-            g(p, k) = c * th - s * g(q, k)
-            g(q, k) = s * th + c * g(q, k)
-          end do
-        end do
-      end do
-    end do
-    smin = sqrt(max(0.0_wp, minval([(g(p, p), p = 1, dim)])))
-  end function sigma_min
 
 end module affine_motion

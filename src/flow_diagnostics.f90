@@ -7,7 +7,8 @@ module flow_diagnostics
   use kinds, only: wp, i8
   use particles, only: particles_t
   use kernels, only: kernel_t, kernel_f
-  use fluid_rhs, only: sym_min_eigenvalue
+  use sym3, only: sym_min_eigenvalue
+  use fluid_rhs, only: LAMBDA_MIN
   use parallel_env, only: parallel_env_t, par_sum, par_sum_array
   implicit none
   private
@@ -247,7 +248,7 @@ contains
   !>   L_i = M_i^-1, M_i = Sum_j V_j grad_i W_ij (x_j - x_i)^T,
   !> exact for any linear velocity field (a rigid rotation gives -2 omega on
   !> every particle, free surface included).  Where M_i is nearly singular
-  !> (smallest eigenvalue below 0.1, isolated particles) L_i = I.
+  !> (smallest eigenvalue below LAMBDA_MIN, isolated particles) L_i = I.
   !> Particles 1..n get a value; all of 1..ntot (owned and halo copies) serve
   !> as neighbours.  A cell list of the kernel support finds them.
   subroutine vorticity_2d(kernel, n, ntot, x, u, m, rho, omega)
@@ -255,10 +256,9 @@ contains
     integer, intent(in) :: n, ntot
     real(wp), intent(in) :: x(:, :), u(:, :), m(:), rho(:)
     real(wp), intent(out) :: omega(n)
-    real(wp), parameter :: lambda_min = 0.1_wp
     integer, allocatable :: head(:), next(:)
     real(wp) :: lo(2), s, s2, xij(2), r2, f, v, g(2), du(2), gu(2, 2), mm(2, 2), det, lam, &
-                tr, inv(2, 2), a(2, 2)
+                inv(2, 2), a(2, 2)
     integer :: nc(2), i, j, ci, a1, b1, c_own(2)
     s = kernel%support
     s2 = s**2
@@ -296,11 +296,10 @@ contains
           end do
         end do
       end do
-      ! smallest eigenvalue of the symmetric M
-      tr = 0.5_wp * (mm(1, 1) + mm(2, 2))
-      lam = tr - sqrt(0.25_wp * (mm(1, 1) - mm(2, 2))**2 + mm(1, 2)**2)
+      ! M is symmetric up to rounding: its (1, 2) element serves the eigenvalue
+      lam = sym_min_eigenvalue(2, [mm(1, 1), mm(2, 2), 0.0_wp, mm(1, 2), 0.0_wp, 0.0_wp])
       det = mm(1, 1) * mm(2, 2) - mm(1, 2) * mm(2, 1)
-      if (lam >= lambda_min .and. det > 0) then
+      if (lam >= LAMBDA_MIN .and. det > 0) then
         inv = reshape([mm(2, 2), -mm(2, 1), -mm(1, 2), mm(1, 1)], [2, 2]) / det
         ! grad u = G L^T with G(a, b) = Sum V du_a g_b; L symmetric
         a = matmul(gu, transpose(inv))

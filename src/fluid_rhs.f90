@@ -12,10 +12,11 @@ module fluid_rhs
   use kinds, only: wp, i8
   use kernels, only: kernel_t, kernel_f_list, kernel_w, kernel_w_list
   use neighbours, only: neighbour_list_t
+  use sym3, only: sym_min_eigenvalue, invert_sym
   implicit none
   private
   public :: rhs_params_t, rhs_density_gradient, rhs_renormalisation, rhs_evaluate, rhs_shift, &
-            sym_min_eigenvalue, LAMBDA_MIN, LAMBDA_SURFACE, LAMBDA_NEAR, pair_buffers, &
+            LAMBDA_MIN, LAMBDA_SURFACE, LAMBDA_NEAR, pair_buffers, &
             in_range_pairs
   public :: VISC_NONE, VISC_DELTA, VISC_MONAGHAN, DIFF_NONE, DIFF_MOLTENI, DIFF_ANTUONO
   public :: PGRAD_STANDARD, PGRAD_HIGHER_ORDER, DIV_STANDARD, DIV_RENORMALISED
@@ -144,9 +145,7 @@ contains
           gi = gi + drho * vj * g
           grad_rho(:, j) = grad_rho(:, j) + drho * vi * g
         end if
-        ! -F x_ij x_ij^T, the same for i and j
-        xx = -f * [xij(1)**2, xij(2)**2, xij(3)**2, &
-                   xij(1) * xij(2), xij(1) * xij(3), xij(2) * xij(3)]
+        xx = moment_term(f, xij)
         mi = mi + vj * xx
         mm(:, j) = mm(:, j) + vi * xx
       end do
@@ -166,6 +165,16 @@ contains
     end do
     if (with_g) grad_rho(:, n + 1:ntot) = 0   ! halo values come from their owners
   end subroutine rhs_renormalisation
+
+  !> (E3) The term of one pair in M_i, the same in M_j: -F x_ij x_ij^T,
+  !> packed as (xx, yy, zz, xy, xz, yz) (sym3).  The one definition of M:
+  !> the renormalisation and the shifting both accumulate it.
+  pure function moment_term(f, xij) result(xx)
+    real(wp), intent(in) :: f, xij(3)
+    real(wp) :: xx(6)
+    xx = -f * [xij(1)**2, xij(2)**2, xij(3)**2, &
+               xij(1) * xij(2), xij(1) * xij(3), xij(2) * xij(3)]
+  end function moment_term
 
   !> Work arrays for the in-range partners of one particle, sized by the
   !> longest row of the list.
@@ -206,62 +215,6 @@ contains
       nn = nn + merge(1, 0, r2 < s2)
     end do
   end subroutine in_range_pairs
-
-  !> Smallest eigenvalue of the symmetric dim x dim matrix stored as (xx, yy,
-  !> zz, xy, xz, yz): closed form in 2D, the trigonometric form in 3D.
-  pure function sym_min_eigenvalue(dim, a) result(lam)
-    integer, intent(in) :: dim
-    real(wp), intent(in) :: a(6)
-    real(wp) :: lam, q, p1, p2, p, b(6), r, phi
-    if (dim == 2) then
-      lam = 0.5_wp * (a(1) + a(2)) - sqrt(0.25_wp * (a(1) - a(2))**2 + a(4)**2)
-      return
-    end if
-    p1 = a(4)**2 + a(5)**2 + a(6)**2
-    q = (a(1) + a(2) + a(3)) / 3
-    if (p1 <= epsilon(1.0_wp) * q**2) then
-      lam = minval(a(1:3))
-      return
-    end if
-    p2 = (a(1) - q)**2 + (a(2) - q)**2 + (a(3) - q)**2 + 2 * p1
-    p = sqrt(p2 / 6)
-    b(1:3) = (a(1:3) - q) / p
-    b(4:6) = a(4:6) / p
-    ! r = det(B)/2 with B = (A - q I)/p
-    r = 0.5_wp * (b(1) * (b(2) * b(3) - b(6)**2) - b(4) * (b(4) * b(3) - b(6) * b(5)) &
-                  + b(5) * (b(4) * b(6) - b(2) * b(5)))
-    r = max(-1.0_wp, min(1.0_wp, r))
-    phi = acos(r) / 3
-    lam = q + 2 * p * cos(phi + 2 * acos(-1.0_wp) / 3)
-  end function sym_min_eigenvalue
-
-  !> Inverse of the symmetric dim x dim matrix stored as (xx, yy, zz, xy, xz,
-  !> yz), and its determinant; the unused rows of a 2D inverse are zero.
-  pure subroutine invert_sym(dim, a, inv, det)
-    integer, intent(in) :: dim
-    real(wp), intent(in) :: a(6)
-    real(wp), intent(out) :: inv(3, 3), det
-    inv = 0
-    if (dim == 2) then
-      det = a(1) * a(2) - a(4)**2
-      if (det <= 0) return
-      inv(1, 1) = a(2) / det
-      inv(2, 2) = a(1) / det
-      inv(1, 2) = -a(4) / det
-      inv(2, 1) = inv(1, 2)
-    else
-      inv(1, 1) = a(2) * a(3) - a(6)**2
-      inv(1, 2) = a(5) * a(6) - a(4) * a(3)
-      inv(1, 3) = a(4) * a(6) - a(5) * a(2)
-      inv(2, 2) = a(1) * a(3) - a(5)**2
-      inv(2, 3) = a(4) * a(5) - a(1) * a(6)
-      inv(3, 3) = a(1) * a(2) - a(4)**2
-      det = a(1) * inv(1, 1) + a(4) * inv(1, 2) + a(5) * inv(1, 3)
-      if (det <= 0) return
-      inv(2, 1) = inv(1, 2); inv(3, 1) = inv(1, 3); inv(3, 2) = inv(2, 3)
-      inv = inv / det
-    end if
-  end subroutine invert_sym
 
   !> Time derivatives of density and velocity of the n owned particles.
   !>  (E1) D rho_i/Dt = -rho_i Sum_j u_ji . g V_j + D_i
@@ -513,9 +466,7 @@ contains
         s0(:, j) = s0(:, j) - vi * g
         s1i = s1i + (w * vj) * g
         s1(:, j) = s1(:, j) - (w * vi) * g
-        ! (E3) M: -F x_ij x_ij^T, the same for i and j
-        xx = -fl(l) * [xij(1)**2, xij(2)**2, xij(3)**2, &
-                       xij(1) * xij(2), xij(1) * xij(3), xij(2) * xij(3)]
+        xx = moment_term(fl(l), xij)
         mi = mi + vj * xx
         mm(:, j) = mm(:, j) + vi * xx
       end do

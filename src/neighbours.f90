@@ -11,6 +11,7 @@
 !> the same particles close by, and no spread stops the run.
 module neighbours
   use kinds, only: wp, i8
+  use sorting, only: sort_index
   implicit none
   private
   public :: neighbour_list_t, cell_sort_permutation, neighbour_build, neighbour_counts
@@ -95,7 +96,10 @@ contains
     nl%n_rows = ntot
     r2max = radius**2
     call bin_cells(dim, ntot, x, radius, origin, cs)
-    call sort_cells_by_id(cs%cstart(1:cs%n_cells + 1), cs%order, id)
+    ! within each cell, by ascending global id
+    do c = 1, cs%n_cells
+      call sort_index(id, cs%order(cs%cstart(c):cs%cstart(c + 1) - 1))
+    end do
     if (allocated(nl%start)) deallocate(nl%start, nl%row)
     allocate(nl%start(ntot + 1), nl%row(ntot))
     cap = max(nl%n_pairs + nl%n_pairs / 4, 16_i8 * ntot, 64_i8)
@@ -185,7 +189,11 @@ contains
     end do
     ! 2. cell perm(k) of first appearance is cell k in lexicographic order
     allocate(perm(m), rank(m))
-    call sort_lexicographic(m, cc, perm)
+    ! (the coordinates are all distinct: stable sorts by x, then y, then z)
+    perm = [(k, k = 1, m)]
+    do s = 1, 3
+      call sort_index(cc(s, 1:m), perm)
+    end do
     rank(perm) = [(k, k = 1, m)]
     cs%n_cells = m
     cs%c = cc(:, perm)
@@ -305,73 +313,6 @@ contains
     integer(i8), parameter :: MASK30 = 2_i8**30 - 1, MASK31 = 2_i8**31 - 1
     h = int(ishft(iand(sum(iand(c, MASK30) * K), MASK31), -(31 - bits)))
   end function hash_slot
-
-  !> perm: 1..m ordered by the lexicographic (z, y, x) order of cc(:, 1:m)
-  !> (bottom-up merge sort; the coordinates are all distinct).
-  subroutine sort_lexicographic(m, cc, perm)
-    integer, intent(in) :: m
-    integer(i8), intent(in) :: cc(:, :)
-    integer, intent(out) :: perm(m)
-    integer, allocatable :: merged(:)
-    integer :: width, lo, mid, hi, i, j, k
-    perm = [(k, k = 1, m)]
-    allocate(merged(m))
-    width = 1
-    do while (width < m)
-      do lo = 1, m, 2 * width
-        mid = min(lo + width, m + 1)      ! runs lo..mid-1 and mid..hi-1
-        hi = min(lo + 2 * width, m + 1)
-        i = lo
-        j = mid
-        do k = lo, hi - 1
-          if (j >= hi) then
-            merged(k) = perm(i); i = i + 1
-          else if (i >= mid) then
-            merged(k) = perm(j); j = j + 1
-          else if (precedes(cc(:, perm(j)), cc(:, perm(i)))) then
-            merged(k) = perm(j); j = j + 1
-          else
-            merged(k) = perm(i); i = i + 1
-          end if
-        end do
-      end do
-      perm = merged
-      width = 2 * width
-    end do
-  end subroutine sort_lexicographic
-
-  !> Cell coordinates p before q in lexicographic (z, y, x) order.
-  pure logical function precedes(p, q)
-    integer(i8), intent(in) :: p(3), q(3)
-    if (p(3) /= q(3)) then
-      precedes = p(3) < q(3)
-    else if (p(2) /= q(2)) then
-      precedes = p(2) < q(2)
-    else
-      precedes = p(1) < q(1)
-    end if
-  end function precedes
-
-  !> Within each cell, orders the particles by ascending global id
-  !> (insertion sort: cells hold tens of particles, mostly in order already).
-  subroutine sort_cells_by_id(cstart, order, id)
-    integer, intent(in) :: cstart(:)
-    integer, intent(inout) :: order(:)
-    integer(i8), intent(in) :: id(:)
-    integer :: c, k, l, v
-    do c = 1, size(cstart) - 1
-      do k = cstart(c) + 1, cstart(c + 1) - 1
-        v = order(k)
-        l = k - 1
-        do while (l >= cstart(c))
-          if (id(order(l)) <= id(v)) exit
-          order(l + 1) = order(l)
-          l = l - 1
-        end do
-        order(l + 1) = v
-      end do
-    end do
-  end subroutine sort_cells_by_id
 
   !> Neighbours of the owned particles 1..n: `listed` counts each listed
   !> pair once for each owned particle in it, `in_range` the same for the

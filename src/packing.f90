@@ -190,19 +190,19 @@ contains
     dmax_abs = prm%d_max * prm%dx
     r_clip = prm%radius - 0.25_wp * prm%dx
     tab = exterior_table_init(kern, s%parts%dim, prm%radius)
-    s%skin = s%skin_min
+    s%lm%skin = s%lm%skin_min
     call solver_rebuild(s, env)
     rep%rebuilds = 1
     s%parts%u = 0
     moved = 0
     clipped = 0
     do it = 1, prm%max_iterations
-      if (moved > 0.5_wp * s%skin) then
+      if (moved > 0.5_wp * s%lm%skin) then
         call solver_rebuild(s, env)
         rep%rebuilds = rep%rebuilds + 1
         moved = 0
       end if
-      call halo_refresh(s%halo, env, s%parts)
+      call halo_refresh(s%dc%halo, env, s%parts)
       n = s%parts%n
       ntot = n + s%parts%n_halo
       ! work arrays as large as the particle arrays, which migration and
@@ -212,7 +212,7 @@ contains
       end if
       if (.not. allocated(grad)) allocate(grad(3, size(s%parts%x, 2)), gam(size(s%parts%x, 2)))
       new_level = it <= LEVEL_EARLY .or. mod(it - 1, LEVEL_EVERY) == 0
-      call sum_gradient(kern, n, ntot, s%parts%x, vol, s%nl, new_level, grad, gam)
+      call sum_gradient(kern, n, ntot, s%parts%x, vol, s%lm%nl, new_level, grad, gam)
       ! the level of the discrete kernel sum in the bulk (above 1 by the
       ! kernel's discretisation error, 0.3 % at h = 1.6 dx in 3D) scales the
       ! exterior part, so that the free surface is in balance with the bulk

@@ -14,8 +14,9 @@ module simulation
                        DIFF_ANTUONO, PGRAD_STANDARD, PGRAD_HIGHER_ORDER, DIV_STANDARD, &
                        DIV_RENORMALISED
   use solver, only: solver_t, solver_init, solver_step, solver_evaluate, solver_time_step, &
-                    solver_sync_halo, &
-                    SCHEME_RK4, SCHEME_PC2, BALANCE_PARTICLES, BALANCE_PAIRS
+                    solver_sync_halo
+  use decomposition, only: BALANCE_PARTICLES, BALANCE_PAIRS
+  use integrators, only: SCHEME_RK4, SCHEME_PC2
   use diagnostics, only: kinetic_energy, total_mass, total_momentum, probe_pressure, &
                          find_bad_particle
   use case_base, only: case_t, case_fields_t
@@ -184,11 +185,11 @@ contains
         end if
         ! a run restarted from this snapshot starts with a fresh list: so
         ! does this one, and both go on identically
-        s%force_rebuild = .true.
+        s%lm%force_rebuild = .true.
       end if
       if (wall_time() - wall_last >= cfg%run%progress_interval .or. done) then
         wall_last = wall_time()
-        call print_progress(env, step, t, dt, t0_run, t_end, wall_last - wall0, s%imbalance)
+        call print_progress(env, step, t, dt, t0_run, t_end, wall_last - wall0, s%dc%imbalance)
       end if
     end do
 
@@ -250,14 +251,14 @@ contains
     case default
       s%rhs%diffusion = DIFF_MOLTENI
     end select
-    s%scheme = merge(SCHEME_PC2, SCHEME_RK4, cfg%numerics%integrator == 'pc2')
+    s%integ%scheme = merge(SCHEME_PC2, SCHEME_RK4, cfg%numerics%integrator == 'pc2')
     s%cfl = cfg%numerics%cfl
     s%cfl_force = cfg%numerics%cfl_force
     s%cfl_visc = cfg%numerics%cfl_visc
-    s%skin_min = cfg%numerics%skin * s%rhs%kernel%h
-    s%decomposition = merge(DECOMP_METIS, DECOMP_SLAB, cfg%parallel%decomposition == 'metis')
-    s%balance = merge(BALANCE_PAIRS, BALANCE_PARTICLES, cfg%parallel%balance == 'pairs')
-    s%imbalance_threshold = cfg%parallel%imbalance_threshold
+    s%lm%skin_min = cfg%numerics%skin * s%rhs%kernel%h
+    s%dc%method = merge(DECOMP_METIS, DECOMP_SLAB, cfg%parallel%decomposition == 'metis')
+    s%dc%balance = merge(BALANCE_PAIRS, BALANCE_PARTICLES, cfg%parallel%balance == 'pairs')
+    s%dc%imbalance_threshold = cfg%parallel%imbalance_threshold
     run%n_probes = cfg%output%n_probes
     run%probes = cfg%output%probes
     if (dim == 2) run%probes(3, :) = 0
@@ -269,10 +270,10 @@ contains
       call pack_ball(s, env, run%pack, run%pack_report)
       call run%problem%initial_state(s%eos, dx, s%parts)
       ! the run starts afresh on the packed particles
-      s%n_rebuilds = 0
-      s%n_balances = 0
-      s%n_migrated = 0
-      s%comm_time = 0
+      s%lm%n_rebuilds = 0
+      s%dc%n_balances = 0
+      s%dc%n_migrated = 0
+      s%dc%comm_time = 0
     end if
   end subroutine setup
 
@@ -367,12 +368,12 @@ contains
       p_probe(k) = probe_pressure(env, s%parts, s%rhs%kernel, run%probes(:, k))
     end do
     call run%problem%sample(env, t, s%parts, s%rhs%kernel, case_values)
-    row = [t, real(step, wp), dt, s%imbalance, kinetic_energy(env, s%parts), &
+    row = [t, real(step, wp), dt, s%dc%imbalance, kinetic_energy(env, s%parts), &
            total_mass(env, s%parts), &
            mom(1:dim), p_probe(1:run%n_probes), case_values]
     call timeseries_add(run%ts, row)
-    run%imb_sum = run%imb_sum + s%imbalance
-    run%imb_max = max(run%imb_max, s%imbalance)
+    run%imb_sum = run%imb_sum + s%dc%imbalance
+    run%imb_max = max(run%imb_max, s%dc%imbalance)
     run%imb_n = run%imb_n + 1
   end subroutine sample
 
@@ -463,7 +464,7 @@ contains
     real(wp), intent(in) :: dx, dt
     real(wp) :: listed, in_range
     integer(i8) :: n_listed, n_in_range
-    call neighbour_counts(s%nl, s%parts%n, s%parts%x, s%rhs%kernel%support**2, n_listed, &
+    call neighbour_counts(s%lm%nl, s%parts%n, s%parts%x, s%rhs%kernel%support**2, n_listed, &
                           n_in_range)
     listed = par_sum(env, real(n_listed, wp)) / max(run%n_global, 1_i8)
     in_range = par_sum(env, real(n_in_range, wp)) / max(run%n_global, 1_i8)
@@ -516,10 +517,10 @@ contains
     real(wp), intent(in) :: wall
     real(wp) :: comm, mem_max, mem_total, listed, in_range
     integer(i8) :: n_listed, n_in_range
-    comm = par_max(env, s%comm_time)
+    comm = par_max(env, s%dc%comm_time)
     mem_max = par_max(env, peak_memory_mb())
     mem_total = par_sum(env, peak_memory_mb())
-    call neighbour_counts(s%nl, s%parts%n, s%parts%x, s%rhs%kernel%support**2, n_listed, &
+    call neighbour_counts(s%lm%nl, s%parts%n, s%parts%x, s%rhs%kernel%support**2, n_listed, &
                           n_in_range)
     listed = par_sum(env, real(n_listed, wp)) / max(run%n_global, 1_i8)
     in_range = par_sum(env, real(n_in_range, wp)) / max(run%n_global, 1_i8)
@@ -529,15 +530,15 @@ contains
       real(run%n_global, wp) * steps / max(wall, 1e-9_wp), ' particle-steps/s on ', &
       env%nranks, ' rank(s)'
     write(output_unit, '(a,i0,a,i0,a,i0,a,f6.2,a,f9.1,a,f9.1,a)') &
-      '  right-hand sides ', s%n_evaluations, ', list rebuilds ', s%n_rebuilds, &
-      ', snapshots ', run%n_snapshots, ' (skin ', s%skin / s%rhs%kernel%h, &
+      '  right-hand sides ', s%n_evaluations, ', list rebuilds ', s%lm%n_rebuilds, &
+      ', snapshots ', run%n_snapshots, ' (skin ', s%lm%skin / s%rhs%kernel%h, &
       ' h), peak memory ', mem_max, ' MB per rank (max), ', mem_total, ' MB in all'
     write(output_unit, '(a,f8.1,a,f8.1,a)') '  neighbours per particle: ', listed, &
       ' in the list, ', in_range, ' within the kernel support'
 
     if (env%nranks > 1) write(output_unit, '(a,f6.3,a,f6.3,a,i0,a,i0,a,f5.1,a)') &
       '  imbalance (max/mean particles) mean ', run%imb_sum / max(run%imb_n, 1), ', max ', &
-      run%imb_max, ', re-balanced ', s%n_balances, ' times, ', s%n_migrated, &
+      run%imb_max, ', re-balanced ', s%dc%n_balances, ' times, ', s%dc%n_migrated, &
       ' migrations, communication ', 100 * comm / max(wall, 1e-9_wp), ' % of the wall time'
     flush(output_unit)
   end subroutine print_end

@@ -1,35 +1,34 @@
-!> The time stepper: particle state, neighbour list management, stage
-!> evaluation and the integrators (doc/theory.md T1-T3).
+!> The time stepper: the particle state, the evaluation of a stage (halo
+!> refresh, pressure, the passes of the right-hand side), the time step
+!> (doc/theory.md T3), the step and the shifting (E8).  Its parts by
+!> concern: the neighbour list and when to rebuild it in list_manager, the
+!> domain decomposition in decomposition, the integrators (T1, T2) in
+!> integrators.
 module solver
-  use kinds, only: wp, i8
+  use kinds, only: wp
   use particles, only: particles_t, particles_permute
-  use neighbours, only: neighbour_list_t, neighbour_build, cell_sort_permutation
-  use affine_motion, only: affine_fit, sigma_min
+  use neighbours, only: cell_sort_permutation
+  use list_manager, only: list_manager_t, list_radius, list_check, list_build, list_pair_work
   use eos, only: eos_t, eos_pressure
   use fluid_rhs, only: rhs_params_t, rhs_renormalisation, rhs_evaluate, rhs_shift, &
                        DIFF_ANTUONO, VISC_NONE, PGRAD_HIGHER_ORDER, DIV_RENORMALISED
-  use parallel_env, only: parallel_env_t, par_max, par_min, wall_time
-  use domain, only: domain_t, domain_balance, domain_imbalance, DECOMP_SLAB, DECOMP_METIS
-  use halo_exchange, only: halo_t, migrate, halo_build, halo_refresh, halo_refresh_field
+  use parallel_env, only: parallel_env_t, par_max
+  use decomposition, only: decomposition_t, decomp_redistribute, decomp_halo_build, &
+                           decomp_refresh, decomp_refresh_field, decomp_measure, BALANCE_PAIRS
+  use integrators, only: integrator_t, integrator_reserve, integrator_stages, integrator_advance
   implicit none
   private
   public :: solver_t, solver_init, solver_step, solver_evaluate, solver_rebuild, &
-            solver_time_step, solver_sync_halo, SCHEME_RK4, SCHEME_PC2, BALANCE_PARTICLES, &
-            BALANCE_PAIRS
-
-  integer, parameter :: SCHEME_RK4 = 1   !< (T1) classical 4th-order Runge-Kutta
-  integer, parameter :: SCHEME_PC2 = 2   !< (T2) 2-stage predictor-corrector
-  integer, parameter :: BALANCE_PARTICLES = 1, BALANCE_PAIRS = 2   !< work measures
+            solver_time_step, solver_sync_halo
 
   type :: solver_t
     type(particles_t) :: parts
     type(rhs_params_t) :: rhs
     type(eos_t) :: eos
-    type(neighbour_list_t) :: nl
-    integer :: scheme = SCHEME_RK4
+    type(list_manager_t) :: lm        !< the neighbour list, its skin and validity test
+    type(integrator_t) :: integ       !< the scheme and its work arrays
+    type(decomposition_t) :: dc       !< domain, halo and balancing
     real(wp) :: cfl = 1.5_wp, cfl_force = 0.25_wp, cfl_visc = 0.125_wp
-    real(wp) :: skin_min = 0      !< smallest skin distance of the list (absolute)
-    real(wp) :: skin = 0          !< skin of the current list
     real(wp) :: nu = 0            !< kinematic viscosity equivalent to the artificial one
     real(wp), allocatable :: drho(:), du(:, :), grad_rho(:, :)
     !> (E9) the free-surface indicator lambda_i from the first pass (one
@@ -44,23 +43,9 @@ module solver
     real(wp) :: shift_dx = 0
     real(wp), allocatable :: dr(:, :)
     real(wp) :: shift_max = 0
-    real(wp), allocatable :: xs(:, :), us(:, :), rhos(:)   !< state at the start of a step
-    real(wp), allocatable :: xa(:, :), ua(:, :), rhoa(:)   !< RK4 accumulators
-    integer :: n_rebuilds = 0
     integer :: n_evaluations = 0
     real(wp) :: umax = 0, amax = 0     !< global maxima at the start of the last step
     real(wp) :: dt_cfl = 0, dt_force = 0, dt_visc = 0  !< the limits of the last step
-    ! domain decomposition
-    type(domain_t) :: dom
-    type(halo_t) :: halo
-    integer :: decomposition = DECOMP_SLAB
-    integer :: balance = BALANCE_PARTICLES
-    real(wp) :: imbalance_threshold = 0.1_wp   !< re-balance when max/mean work exceeds 1 + this
-    real(wp) :: imbalance = 1                  !< max/mean work after the last rebuild
-    integer :: n_balances = 0
-    integer(i8) :: n_migrated = 0              !< particles that changed rank
-    real(wp) :: comm_time = 0                  !< wall time in halo exchanges and migration
-    logical :: force_rebuild = .false.         !< rebuild at the start of the next step
     !> L_i and lambda_i of the first pass at the first stage of a step only,
     !> kept for its other stages (numerics.renormalise = 'step'); without
     !> the Antuono diffusion, whose density gradient changes with rho
@@ -76,7 +61,7 @@ contains
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
     call ensure_capacity(s)
-    s%skin = s%skin_min
+    s%lm%skin = s%lm%skin_min
     ! nu = alpha h c0 / (2 (dim + 2)) for the delta-SPH form (E5: alpha h c0/8 in 2D)
     s%nu = 0
     if (s%rhs%viscosity /= VISC_NONE) &
@@ -90,86 +75,53 @@ contains
     type(solver_t), intent(inout) :: s
     integer :: cap
     cap = size(s%parts%rho)
+    call integrator_reserve(s%integ, cap)
     if (allocated(s%drho)) then
       if (size(s%drho) >= cap) return
-      deallocate(s%drho, s%du, s%grad_rho, s%xs, s%us, s%rhos, s%xa, s%ua, s%rhoa, s%lambda, &
-                 s%lmat, s%dr)
+      deallocate(s%drho, s%du, s%grad_rho, s%lambda, s%lmat, s%dr)
     end if
     allocate(s%drho(cap), s%du(3, cap), s%grad_rho(3, cap))
-    allocate(s%xs(3, cap), s%us(3, cap), s%rhos(cap), s%xa(3, cap), s%ua(3, cap), s%rhoa(cap))
     allocate(s%lambda(1, cap), s%lmat(6, cap), s%dr(3, cap))
     s%drho = 0; s%du = 0; s%grad_rho = 0; s%lambda = 0; s%lmat = 0; s%dr = 0
   end subroutine ensure_capacity
 
-  !> Re-balances the decomposition when needed (first call, or imbalance
+  !> Re-balances the decomposition when needed (first build, or imbalance
   !> above the threshold), migrates particles to their owners, sorts the
   !> owned ones by cell (memory locality), brings in the halo copies within
-  !> the list radius and rebuilds the neighbour list on the grid aligned on
-  !> the global lower corner of the particles, which every rank computes
-  !> alike.
+  !> the list radius and rebuilds the neighbour list (list_build).
   subroutine solver_rebuild(s, env)
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
     integer, allocatable :: perm(:)
     real(wp), allocatable :: w(:)
-    real(wp) :: radius, origin(3), t0, imbalance
-    integer :: k, ntot, n_left
-    radius = s%rhs%kernel%support + s%skin
+    real(wp) :: radius
+    integer :: ntot
+    radius = list_radius(s%lm, s%rhs%kernel%support)
     associate(pt => s%parts)
-      ! work of each owned particle: 1, or its number of pairs in the last list
-      allocate(w(pt%n))
-      w = 1
-      if (s%balance == BALANCE_PAIRS .and. s%nl%n_rows > 0) call pair_work(s, w)
-      ! collective: evaluated on every rank, never inside a short-circuit
-      imbalance = domain_imbalance(env, sum(w))
-      if (s%n_rebuilds == 0 .or. imbalance > 1 + s%imbalance_threshold) then
-        call domain_balance(s%dom, env, s%decomposition, pt%dim, pt%n, pt%x, w, radius)
-        s%n_balances = s%n_balances + 1
-      end if
-      t0 = wall_time()
-      call migrate(env, s%dom, pt, n_left)
-      s%n_migrated = s%n_migrated + n_left
-      s%comm_time = s%comm_time + (wall_time() - t0)
+      call work(w)
+      call decomp_redistribute(s%dc, env, pt, w, radius, s%lm%n_rebuilds == 0)
       allocate(perm(pt%n))
       call cell_sort_permutation(pt%dim, pt%n, pt%x, radius, perm)
       call particles_permute(pt, perm)
-      t0 = wall_time()
-      call halo_build(s%halo, env, s%dom, pt, radius)
-      s%comm_time = s%comm_time + (wall_time() - t0)
+      call decomp_halo_build(s%dc, env, pt, radius)
       call ensure_capacity(s)
       ntot = pt%n + pt%n_halo
-      do k = 1, 3
-        origin(k) = huge(1.0_wp)
-        if (pt%n > 0) origin(k) = minval(pt%x(k, 1:pt%n))
-        origin(k) = par_min(env, origin(k))
-      end do
-      call neighbour_build(s%nl, pt%dim, pt%n, ntot, pt%x, pt%id, radius, origin)
-      deallocate(w)
-      allocate(w(pt%n))
-      w = 1
-      if (s%balance == BALANCE_PAIRS) call pair_work(s, w)
-      s%imbalance = domain_imbalance(env, sum(w))
+      call list_build(s%lm, env, pt%dim, pt%n, ntot, pt%x, pt%id, s%rhs%kernel%support)
+      call work(w)
+      call decomp_measure(s%dc, env, w)
     end associate
-    s%n_rebuilds = s%n_rebuilds + 1
-  end subroutine solver_rebuild
 
-  !> Work of each owned particle as its number of listed pairs (a pair of
-  !> two owned particles counts for both).
-  subroutine pair_work(s, w)
-    type(solver_t), intent(in) :: s
-    real(wp), intent(inout) :: w(:)
-    integer :: kk, i, j
-    integer(i8) :: k
-    w = 0
-    do kk = 1, s%nl%n_rows
-      i = s%nl%row(kk)
-      do k = s%nl%start(kk), s%nl%start(kk + 1) - 1
-        j = s%nl%nbr(k)
-        if (i <= size(w)) w(i) = w(i) + 1
-        if (j <= size(w)) w(j) = w(j) + 1
-      end do
-    end do
-  end subroutine pair_work
+  contains
+
+    !> Work of each owned particle: 1, or its number of pairs in the list.
+    subroutine work(w)
+      real(wp), allocatable, intent(out) :: w(:)
+      allocate(w(s%parts%n))
+      w = 1
+      if (s%dc%balance == BALANCE_PAIRS .and. s%lm%nl%n_rows > 0) call list_pair_work(s%lm, w)
+    end subroutine work
+
+  end subroutine solver_rebuild
 
   !> One right-hand-side evaluation at the current state: halo copies
   !> refreshed, pressure from the equation of state, then the optional
@@ -182,7 +134,6 @@ contains
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
     integer :: ntot
-    real(wp) :: t0
     logical :: antuono, corrected, first_pass, fresh
     antuono = s%rhs%diffusion == DIFF_ANTUONO
     corrected = s%rhs%pressure_gradient == PGRAD_HIGHER_ORDER
@@ -190,32 +141,28 @@ contains
     ! the stage's own L_i, or (renormalise_per_step) the step's first one
     fresh = antuono .or. s%first_stage .or. .not. s%renormalise_per_step
     associate(pt => s%parts)
-      t0 = wall_time()
-      call halo_refresh(s%halo, env, pt)
-      s%comm_time = s%comm_time + (wall_time() - t0)
+      call decomp_refresh(s%dc, env, pt)
       ntot = pt%n + pt%n_halo
       pt%p(1:ntot) = eos_pressure(s%eos, pt%rho(1:ntot))
       if (first_pass .and. .not. fresh) then
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
-                          s%nl, s%drho, s%du, s%lambda(1, :), s%lmat)
+                          s%lm%nl, s%drho, s%du, s%lambda(1, :), s%lmat)
       else if (first_pass) then
         if (antuono) then
-          call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%nl, &
+          call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%lm%nl, &
                                    s%lambda(1, :), lmat=s%lmat, grad_rho=s%grad_rho)
         else
-          call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%nl, &
+          call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%lm%nl, &
                                    s%lambda(1, :), lmat=s%lmat)
         end if
-        t0 = wall_time()
-        if (antuono) call halo_refresh_field(s%halo, env, pt%n, s%grad_rho)
+        if (antuono) call decomp_refresh_field(s%dc, env, pt%n, s%grad_rho)
         ! p = 0 on free-surface partners: their lambda is needed too
-        if (corrected) call halo_refresh_field(s%halo, env, pt%n, s%lambda)
-        s%comm_time = s%comm_time + (wall_time() - t0)
+        if (corrected) call decomp_refresh_field(s%dc, env, pt%n, s%lambda)
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
-                          s%nl, s%drho, s%du, s%lambda(1, :), s%lmat)
+                          s%lm%nl, s%drho, s%du, s%lambda(1, :), s%lmat)
       else
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
-                          s%nl, s%drho, s%du)
+                          s%lm%nl, s%drho, s%du)
       end if
     end associate
     s%n_evaluations = s%n_evaluations + 1
@@ -227,7 +174,7 @@ contains
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
     integer :: ntot
-    call halo_refresh(s%halo, env, s%parts)
+    call decomp_refresh(s%dc, env, s%parts)
     ntot = s%parts%n + s%parts%n_halo
     s%parts%p(s%parts%n + 1:ntot) = eos_pressure(s%eos, s%parts%rho(s%parts%n + 1:ntot))
   end subroutine solver_sync_halo
@@ -258,53 +205,21 @@ contains
     dt = min(s%dt_cfl, s%dt_force, s%dt_visc)
   end subroutine solver_time_step
 
-  !> Advances the state by one step of at most dt_limit; returns the dt taken.
-  !> The list is rebuilt unless it surely holds every pair that comes within
-  !> the kernel support during the step (doc/numerics.md, "When the list is
-  !> rebuilt").  Since its build at x0, x = F x0 + b + e (affine_motion), so
-  !> unlisted pairs are at least s0 = sigma_min(F) r_list - 2 e_max apart.
-  !> Within the step (dt <= tau = cfl h/(c0 + Umax)) the velocities
-  !> u = V x + c + w move a pair at separation s apart by at most
-  !> tau (|V| s + 2 w_max) + 4 tau^2 a_max (the stage velocities differ from
-  !> u by at most dt a_max; 2 a_max allows the acceleration to double), so
-  !> the list stays valid while
-  !>   s0 (1 - tau |V|) - 2 tau w_max - 4 tau^2 a_max > support.
-  !> A rebuild resets s0 to r_list and takes the skin that covers a few such
-  !> steps (at least numerics.skin).  The fits of F and V use sums that do
-  !> not depend on the decomposition, so every rank count rebuilds at the
-  !> same steps.  A rebuild is also done when s%force_rebuild is set (after
-  !> each snapshot, so that a run restarted from it goes through the same
-  !> list history).
+  !> Advances the state by one step of at most dt_limit; returns the dt taken:
+  !> the list rebuilt unless it holds every pair the step can bring within
+  !> the support (list_check), the first stage evaluated, the time step
+  !> (T3), the remaining stages of the integrator, then the pressure and the
+  !> optional shifting (E8).
   subroutine solver_step(s, env, dt_limit, dt)
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
     real(wp), intent(in) :: dt_limit
     real(wp), intent(out) :: dt
-    real(wp) :: f(3, 3), v(3, 3), b(3), e_max, w_max, umax, amax, tau, growth, drift, s0, &
-                support
-    integer :: n, dim
-    n = s%parts%n
-    dim = s%parts%dim
-    support = s%rhs%kernel%support
-    call affine_fit(env, dim, n, s%nl%x_ref, s%parts%x, f, b, e_max)
-    call affine_fit(env, dim, n, s%parts%x, s%parts%u, v, b, w_max)
-    umax = 0
-    amax = 0
-    if (n > 0) then
-      umax = sqrt(maxval(sum(s%parts%u(:, 1:n)**2, dim=1)))
-      amax = sqrt(maxval(sum(s%du(:, 1:n)**2, dim=1)))
-    end if
-    umax = par_max(env, umax)
-    amax = par_max(env, amax)
-    tau = s%cfl * s%rhs%kernel%h / (s%rhs%c0 + umax)
-    growth = tau * sqrt(sum(v**2))
-    drift = 2 * tau * w_max + 4 * tau**2 * amax
-    s0 = sigma_min(dim, f) * (support + s%skin) - 2 * e_max
-    if (s0 * (1 - growth) - drift <= support .or. s%force_rebuild) then
-      s%skin = max(s%skin_min, 2.2_wp * (support * growth + drift) / max(1 - growth, 0.5_wp))
-      call solver_rebuild(s, env)
-      s%force_rebuild = .false.
-    end if
+    integer :: n, stage
+    logical :: rebuild
+    call list_check(s%lm, env, s%parts%dim, s%parts%n, s%parts%x, s%parts%u, s%du, &
+                    s%rhs%kernel%support, s%cfl * s%rhs%kernel%h, s%rhs%c0, rebuild)
+    if (rebuild) call solver_rebuild(s, env)
     n = s%parts%n      ! migration may have changed it
 
     s%first_stage = .true.
@@ -313,62 +228,13 @@ contains
     call solver_time_step(s, env, dt)
     dt = min(dt, dt_limit)
 
-    associate(x => s%parts%x, u => s%parts%u, rho => s%parts%rho, &
-              du => s%du, drho => s%drho)
-      s%xs(:, 1:n) = x(:, 1:n)
-      s%us(:, 1:n) = u(:, 1:n)
-      s%rhos(1:n) = rho(1:n)
-      select case (s%scheme)
-      case (SCHEME_RK4)
-        ! k1 at y0; y1 = y0 + dt/2 k1
-        s%xa(:, 1:n) = s%xs(:, 1:n) + dt / 6 * u(:, 1:n)
-        s%ua(:, 1:n) = s%us(:, 1:n) + dt / 6 * du(:, 1:n)
-        s%rhoa(1:n) = s%rhos(1:n) + dt / 6 * drho(1:n)
-        call half_stage(0.5_wp * dt)
-        ! k2 at y1; y2 = y0 + dt/2 k2
-        call solver_evaluate(s, env)
-        call accumulate(dt / 3)
-        call half_stage(0.5_wp * dt)
-        ! k3 at y2; y3 = y0 + dt k3
-        call solver_evaluate(s, env)
-        call accumulate(dt / 3)
-        call half_stage(dt)
-        ! k4 at y3; y = y0 + dt/6 (k1 + 2 k2 + 2 k3 + k4)
-        call solver_evaluate(s, env)
-        x(:, 1:n) = s%xa(:, 1:n) + dt / 6 * u(:, 1:n)
-        u(:, 1:n) = s%ua(:, 1:n) + dt / 6 * du(:, 1:n)
-        rho(1:n) = s%rhoa(1:n) + dt / 6 * drho(1:n)
-      case (SCHEME_PC2)
-        ! predictor to the half step, derivatives there, then the corrector;
-        ! positions advance with the mean of the old and new velocities
-        call half_stage(0.5_wp * dt)
-        call solver_evaluate(s, env)
-        rho(1:n) = s%rhos(1:n) + dt * drho(1:n)
-        u(:, 1:n) = s%us(:, 1:n) + dt * du(:, 1:n)
-        x(:, 1:n) = s%xs(:, 1:n) + 0.5_wp * dt * (s%us(:, 1:n) + u(:, 1:n))
-      end select
-    end associate
+    do stage = 1, integrator_stages(s%integ)
+      if (stage > 1) call solver_evaluate(s, env)
+      call integrator_advance(s%integ, stage, dt, n, s%parts%x, s%parts%u, s%parts%rho, &
+                              s%du, s%drho)
+    end do
     s%parts%p(1:n) = eos_pressure(s%eos, s%parts%rho(1:n))
     if (s%shifting) call shift_particles(s, env, dt)
-
-  contains
-
-    !> y = y0 + tau k, with k = (u, du, drho) of the current stage; x first,
-    !> while u still holds the stage velocity.
-    subroutine half_stage(tau)
-      real(wp), intent(in) :: tau
-      s%parts%x(:, 1:n) = s%xs(:, 1:n) + tau * s%parts%u(:, 1:n)
-      s%parts%u(:, 1:n) = s%us(:, 1:n) + tau * s%du(:, 1:n)
-      s%parts%rho(1:n) = s%rhos(1:n) + tau * s%drho(1:n)
-    end subroutine half_stage
-
-    subroutine accumulate(w)
-      real(wp), intent(in) :: w
-      s%xa(:, 1:n) = s%xa(:, 1:n) + w * s%parts%u(:, 1:n)
-      s%ua(:, 1:n) = s%ua(:, 1:n) + w * s%du(:, 1:n)
-      s%rhoa(1:n) = s%rhoa(1:n) + w * s%drho(1:n)
-    end subroutine accumulate
-
   end subroutine solver_step
 
   !> (E8) Particle shifting after a step of dt: the halo copies are brought
@@ -386,17 +252,15 @@ contains
     type(parallel_env_t), intent(in) :: env
     real(wp), intent(in) :: dt
     real(wp), allocatable :: lam(:)
-    real(wp) :: h, coef, t0, dmax
+    real(wp) :: h, coef, dmax
     integer :: n, ntot
     n = s%parts%n
     h = s%rhs%kernel%h
-    t0 = wall_time()
-    call halo_refresh(s%halo, env, s%parts)
-    s%comm_time = s%comm_time + (wall_time() - t0)
+    call decomp_refresh(s%dc, env, s%parts)
     ntot = n + s%parts%n_halo
     coef = (dt * (s%rhs%c0 + s%umax) / h) * (s%umax / s%rhs%c0) * (2 * h)**2
     allocate(lam(ntot))
-    call rhs_shift(s%rhs, n, ntot, s%parts%x, s%parts%rho, s%parts%m, s%nl, coef, &
+    call rhs_shift(s%rhs, n, ntot, s%parts%x, s%parts%rho, s%parts%m, s%lm%nl, coef, &
                    s%shift_dx, s%dr, lam)
     s%parts%x(:, 1:n) = s%parts%x(:, 1:n) + s%dr(:, 1:n)
     dmax = 0

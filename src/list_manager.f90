@@ -1,0 +1,114 @@
+!> The neighbour list of the time stepper and when to rebuild it: its skin,
+!> its build on a grid every rank aligns alike, and the affine validity test
+!> (doc/numerics.md, "When the list is rebuilt").
+module list_manager
+  use kinds, only: wp, i8
+  use neighbours, only: neighbour_list_t, neighbour_build
+  use affine_motion, only: affine_fit
+  use sym3, only: sigma_min
+  use parallel_env, only: parallel_env_t, par_max, par_min
+  implicit none
+  private
+  public :: list_manager_t, list_radius, list_check, list_build, list_pair_work
+
+  type :: list_manager_t
+    type(neighbour_list_t) :: nl
+    real(wp) :: skin_min = 0      !< smallest skin distance of the list (absolute)
+    real(wp) :: skin = 0          !< skin of the current list
+    integer :: n_rebuilds = 0
+    logical :: force_rebuild = .false.   !< rebuild at the next check
+  end type list_manager_t
+
+contains
+
+  !> The radius of the next build: the kernel support plus the skin.
+  pure real(wp) function list_radius(lm, support) result(r)
+    type(list_manager_t), intent(in) :: lm
+    real(wp), intent(in) :: support
+    r = support + lm%skin
+  end function list_radius
+
+  !> rebuild: whether the list must be rebuilt before a step (collective):
+  !> unless it surely holds every pair that comes within the kernel support
+  !> during the step.
+  !> Since its build at x0, x = F x0 + b + e (affine_motion), so unlisted
+  !> pairs are at least s0 = sigma_min(F) r_list - 2 e_max apart.  Within
+  !> the step (dt <= tau = cfl_h/(c0 + Umax), cfl_h = cfl h) the velocities
+  !> u = V x + c + w move a pair at separation s apart by at most
+  !> tau (|V| s + 2 w_max) + 4 tau^2 a_max (the stage velocities differ from
+  !> u by at most dt a_max; 2 a_max allows the acceleration to double), so
+  !> the list stays valid while
+  !>   s0 (1 - tau |V|) - 2 tau w_max - 4 tau^2 a_max > support.
+  !> A rebuild resets s0 to r_list and takes the skin that covers a few such
+  !> steps (at least skin_min).  The fits of F and V use sums that do not
+  !> depend on the decomposition, so every rank count rebuilds at the same
+  !> steps.  A rebuild is also due when lm%force_rebuild is set (after each
+  !> snapshot, so that a run restarted from it goes through the same list
+  !> history).  When due, the skin of the next build is set here.
+  subroutine list_check(lm, env, dim, n, x, u, du, support, cfl_h, c0, rebuild)
+    type(list_manager_t), intent(inout) :: lm
+    type(parallel_env_t), intent(in) :: env
+    integer, intent(in) :: dim, n
+    real(wp), intent(in) :: x(:, :), u(:, :), du(:, :), support, cfl_h, c0
+    logical, intent(out) :: rebuild
+    real(wp) :: f(3, 3), v(3, 3), b(3), e_max, w_max, umax, amax, tau, growth, drift, s0
+    call affine_fit(env, dim, n, lm%nl%x_ref, x, f, b, e_max)
+    call affine_fit(env, dim, n, x, u, v, b, w_max)
+    umax = 0
+    amax = 0
+    if (n > 0) then
+      umax = sqrt(maxval(sum(u(:, 1:n)**2, dim=1)))
+      amax = sqrt(maxval(sum(du(:, 1:n)**2, dim=1)))
+    end if
+    umax = par_max(env, umax)
+    amax = par_max(env, amax)
+    tau = cfl_h / (c0 + umax)
+    growth = tau * sqrt(sum(v**2))
+    drift = 2 * tau * w_max + 4 * tau**2 * amax
+    s0 = sigma_min(dim, f) * (support + lm%skin) - 2 * e_max
+    rebuild = s0 * (1 - growth) - drift <= support .or. lm%force_rebuild
+    if (rebuild) then
+      lm%skin = max(lm%skin_min, 2.2_wp * (support * growth + drift) / max(1 - growth, 0.5_wp))
+      lm%force_rebuild = .false.
+    end if
+  end subroutine list_check
+
+  !> Builds the list of radius list_radius on the grid aligned on the
+  !> global lower corner of the owned particles, which every rank computes
+  !> alike (collective).
+  subroutine list_build(lm, env, dim, n, ntot, x, id, support)
+    type(list_manager_t), intent(inout) :: lm
+    type(parallel_env_t), intent(in) :: env
+    integer, intent(in) :: dim, n, ntot
+    real(wp), intent(in) :: x(3, ntot), support
+    integer(i8), intent(in) :: id(ntot)
+    real(wp) :: origin(3)
+    integer :: k
+    do k = 1, 3
+      origin(k) = huge(1.0_wp)
+      if (n > 0) origin(k) = minval(x(k, 1:n))
+      origin(k) = par_min(env, origin(k))
+    end do
+    call neighbour_build(lm%nl, dim, n, ntot, x, id, list_radius(lm, support), origin)
+    lm%n_rebuilds = lm%n_rebuilds + 1
+  end subroutine list_build
+
+  !> Work of each owned particle as its number of listed pairs (a pair of
+  !> two owned particles counts for both).
+  subroutine list_pair_work(lm, w)
+    type(list_manager_t), intent(in) :: lm
+    real(wp), intent(inout) :: w(:)
+    integer :: kk, i, j
+    integer(i8) :: k
+    w = 0
+    do kk = 1, lm%nl%n_rows
+      i = lm%nl%row(kk)
+      do k = lm%nl%start(kk), lm%nl%start(kk + 1) - 1
+        j = lm%nl%nbr(k)
+        if (i <= size(w)) w(i) = w(i) + 1
+        if (j <= size(w)) w(j) = w(j) + 1
+      end do
+    end do
+  end subroutine list_pair_work
+
+end module list_manager
