@@ -146,9 +146,15 @@ contains
         end do
       else
         a => particles_field(parts, f)
-        do k = 1, size(idx)
-          buf(r + 1:r + nc, k) = a(:, idx(k))
-        end do
+        if (nc == 3) then   ! fixed extents: copies the compiler can unroll
+          do k = 1, size(idx)
+            buf(r + 1:r + 3, k) = a(1:3, idx(k))
+          end do
+        else
+          do k = 1, size(idx)
+            buf(r + 1, k) = a(1, idx(k))
+          end do
+        end if
       end if
       r = r + nc
     end do
@@ -174,9 +180,15 @@ contains
         end do
       else
         a => particles_field(parts, f)
-        do k = 1, count
-          a(:, first + k) = buf(r + 1:r + nc, k)
-        end do
+        if (nc == 3) then
+          do k = 1, count
+            a(1:3, first + k) = buf(r + 1:r + 3, k)
+          end do
+        else
+          do k = 1, count
+            a(1, first + k) = buf(r + 1, k)
+          end do
+        end if
       end if
       r = r + nc
     end do
