@@ -101,6 +101,8 @@ contains
         a(:, 1:old) = b
       end if
     end do
+    ! one copy more than moving each array, but growth is rare and no
+    ! field needs naming here
     parts = grown
   end subroutine particles_reserve
 
