@@ -6,7 +6,10 @@
 !> a cell map) through domain_owner and domain_ranks_near.
 module halo_exchange
   use kinds, only: wp, i8
-  use particles, only: particles_t, particles_reserve, particles_permute
+  use particles, only: particles_t, particles_reserve, particles_permute, particles_pack, &
+                       particles_unpack, particles_field, particles_field_i8
+  use particle_fields, only: FIELD_TABLE, N_FIELDS, MIGRATE_FIELDS, HALO_FIELDS, &
+                             REFRESH_FIELDS, MIGRATE_WORDS, HALO_WORDS, REFRESH_WORDS
   use domain, only: domain_t, domain_owner, domain_ranks_near
   use parallel_env, only: parallel_env_t
   use mpi_f08, only: MPI_Alltoall, MPI_Isend, MPI_Irecv, MPI_Waitall, MPI_Request, &
@@ -23,10 +26,6 @@ module halo_exchange
     integer :: n_sent = 0, n_received = 0
   end type halo_t
 
-  integer, parameter :: MIGRATE_WORDS = 13   !< x(3), u(3), x0(3), rho, p, m, id
-  integer, parameter :: HALO_WORDS = 9       !< x(3), u(3), rho, m, id
-  integer, parameter :: REFRESH_WORDS = 7    !< x(3), u(3), rho
-
 contains
 
   !> Sends every owned particle whose position belongs to another rank to
@@ -36,9 +35,9 @@ contains
     type(domain_t), intent(in) :: d
     type(particles_t), intent(inout) :: parts
     integer, intent(out) :: n_left
-    integer, allocatable :: dest(:), send_start(:), recv_start(:), fill(:), keep(:)
+    integer, allocatable :: dest(:), send_start(:), recv_start(:), fill(:), keep(:), order(:)
     real(wp), allocatable :: sbuf(:, :), rbuf(:, :)
-    integer :: i, q, p, n, k, nrecv, nkeep
+    integer :: i, q, p, n, nrecv, nkeep
     p = env%nranks
     n = parts%n
     n_left = 0
@@ -48,20 +47,16 @@ contains
       dest(i) = domain_owner(d, parts%x(:, i))
     end do
     call counts_to_offsets(env, dest, send_start, recv_start, fill)
-    allocate(sbuf(MIGRATE_WORDS, max(1, send_start(p))))
+    ! the leaving particles in send order, by destination
+    allocate(order(send_start(p)))
     do i = 1, n
       q = dest(i)
       if (q == env%rank) cycle
       fill(q) = fill(q) + 1
-      k = fill(q)
-      sbuf(1:3, k) = parts%x(:, i)
-      sbuf(4:6, k) = parts%u(:, i)
-      sbuf(7:9, k) = parts%x0(:, i)
-      sbuf(10, k) = parts%rho(i)
-      sbuf(11, k) = parts%p(i)
-      sbuf(12, k) = parts%m(i)
-      sbuf(13, k) = transfer(parts%id(i), 1.0_wp)
+      order(fill(q)) = i
     end do
+    allocate(sbuf(MIGRATE_WORDS, max(1, send_start(p))))
+    call particles_pack(parts, MIGRATE_FIELDS, order, sbuf)
     nrecv = recv_start(p)
     allocate(rbuf(MIGRATE_WORDS, max(1, nrecv)))
     call exchange(env, MIGRATE_WORDS, send_start, sbuf, recv_start, rbuf)
@@ -71,16 +66,7 @@ contains
     n_left = n - nkeep
     call particles_permute(parts, keep)
     call particles_reserve(parts, nkeep + nrecv)
-    do k = 1, nrecv
-      i = nkeep + k
-      parts%x(:, i) = rbuf(1:3, k)
-      parts%u(:, i) = rbuf(4:6, k)
-      parts%x0(:, i) = rbuf(7:9, k)
-      parts%rho(i) = rbuf(10, k)
-      parts%p(i) = rbuf(11, k)
-      parts%m(i) = rbuf(12, k)
-      parts%id(i) = transfer(rbuf(13, k), 1_i8)
-    end do
+    call particles_unpack(parts, MIGRATE_FIELDS, nkeep, nrecv, rbuf)
     parts%n = nkeep + nrecv
     parts%n_halo = 0
   end subroutine migrate
@@ -96,7 +82,7 @@ contains
     real(wp), intent(in) :: radius
     integer, allocatable :: counts(:), rcounts(:), fill(:)
     real(wp), allocatable :: sbuf(:, :), rbuf(:, :)
-    integer :: ranks(env%nranks), nr, i, q, p, k, n, j, pass
+    integer :: ranks(env%nranks), nr, i, q, p, n, j, pass
     p = env%nranks
     n = parts%n
     parts%n_halo = 0
@@ -140,51 +126,26 @@ contains
     h%n_sent = h%send_start(p)
     h%n_received = h%recv_start(p)
     allocate(sbuf(HALO_WORDS, max(1, h%n_sent)), rbuf(HALO_WORDS, max(1, h%n_received)))
-    do k = 1, h%n_sent
-      i = h%send_idx(k)
-      sbuf(1:3, k) = parts%x(:, i)
-      sbuf(4:6, k) = parts%u(:, i)
-      sbuf(7, k) = parts%rho(i)
-      sbuf(8, k) = parts%m(i)
-      sbuf(9, k) = transfer(parts%id(i), 1.0_wp)
-    end do
+    call particles_pack(parts, HALO_FIELDS, h%send_idx, sbuf)
     call exchange(env, HALO_WORDS, h%send_start, sbuf, h%recv_start, rbuf)
     call particles_reserve(parts, n + h%n_received)
-    do k = 1, h%n_received
-      i = n + k
-      parts%x(:, i) = rbuf(1:3, k)
-      parts%u(:, i) = rbuf(4:6, k)
-      parts%rho(i) = rbuf(7, k)
-      parts%m(i) = rbuf(8, k)
-      parts%id(i) = transfer(rbuf(9, k), 1_i8)
-      parts%x0(:, i) = 0
-    end do
+    call particles_unpack(parts, HALO_FIELDS, n, h%n_received, rbuf)
+    call clear_halo_slots(parts, .not. FIELD_TABLE%halo, n, h%n_received)
     parts%n_halo = h%n_received
   end subroutine halo_build
 
-  !> Brings the halo copies' positions, velocities and densities up to date.
+  !> Brings the halo copies of the fields refreshed before every right-hand
+  !> side (positions, velocities, densities) up to date.
   subroutine halo_refresh(h, env, parts)
     type(halo_t), intent(in) :: h
     type(parallel_env_t), intent(in) :: env
     type(particles_t), intent(inout) :: parts
     real(wp), allocatable :: sbuf(:, :), rbuf(:, :)
-    integer :: k, i, n
     if (env%nranks == 1) return
-    n = parts%n
     allocate(sbuf(REFRESH_WORDS, max(1, h%n_sent)), rbuf(REFRESH_WORDS, max(1, h%n_received)))
-    do k = 1, h%n_sent
-      i = h%send_idx(k)
-      sbuf(1:3, k) = parts%x(:, i)
-      sbuf(4:6, k) = parts%u(:, i)
-      sbuf(7, k) = parts%rho(i)
-    end do
+    call particles_pack(parts, REFRESH_FIELDS, h%send_idx, sbuf)
     call exchange(env, REFRESH_WORDS, h%send_start, sbuf, h%recv_start, rbuf)
-    do k = 1, h%n_received
-      i = n + k
-      parts%x(:, i) = rbuf(1:3, k)
-      parts%u(:, i) = rbuf(4:6, k)
-      parts%rho(i) = rbuf(7, k)
-    end do
+    call particles_unpack(parts, REFRESH_FIELDS, parts%n, h%n_received, rbuf)
   end subroutine halo_refresh
 
   !> Copies a per-particle field a(ncomp, :) of the owned particles into the
@@ -207,6 +168,27 @@ contains
       a(:, n + k) = rbuf(:, k)
     end do
   end subroutine halo_refresh_field
+
+  !> Zeroes the fields selected by `clear` in the halo slots n+1 .. n+count:
+  !> the halo does not carry them.
+  subroutine clear_halo_slots(parts, clear, n, count)
+    type(particles_t), intent(inout), target :: parts
+    logical, intent(in) :: clear(:)
+    integer, intent(in) :: n, count
+    real(wp), pointer, contiguous :: a(:, :)
+    integer(i8), pointer, contiguous :: ia(:)
+    integer :: f
+    do f = 1, N_FIELDS
+      if (.not. clear(f)) cycle
+      if (FIELD_TABLE(f)%integer8) then
+        ia => particles_field_i8(parts, f)
+        ia(n + 1:n + count) = 0
+      else
+        a => particles_field(parts, f)
+        a(:, n + 1:n + count) = 0
+      end if
+    end do
+  end subroutine clear_halo_slots
 
   !> Send offsets from the destination of each owned particle (this rank's
   !> own particles excluded), the matching receive offsets, and the fill

@@ -5,11 +5,11 @@
 !> a block of rows, and the first list build migrates them to their owners.
 module restart
   use kinds, only: wp, i8
-  use particles, only: particles_t, particles_allocate
+  use particles, only: particles_t
+  use particle_io, only: particles_from_snapshot
   use parallel_env, only: parallel_env_t
   use fileutil, only: join_path, file_exists, base_name
-  use snapshot_io, only: snapshot_t, snapshot_read, snapshot_find_field, snapshot_filename, &
-                         xdmf_index_t, xdmf_add
+  use snapshot_io, only: snapshot_t, snapshot_read, snapshot_filename, xdmf_index_t, xdmf_add
   implicit none
   private
   public :: restart_read, restart_index_history, snapshot_number
@@ -18,7 +18,8 @@ contains
 
   !> Loads the particles of snapshot `path` (this rank's block of rows) into
   !> parts, with the time and step it was written at.  The snapshot must be
-  !> of the same case and dimension and hold `position_initial`.
+  !> of the same case and dimension and hold every field the registry
+  !> restarts from (`position_initial` among them).
   subroutine restart_read(env, path, case_name, dim, parts, t, step, ok, errmsg)
     type(parallel_env_t), intent(in) :: env
     character(len=*), intent(in) :: path, case_name
@@ -29,7 +30,7 @@ contains
     logical, intent(out) :: ok
     character(len=:), allocatable, intent(out) :: errmsg
     type(snapshot_t) :: snap
-    integer :: k, n, kx0
+    character(len=:), allocatable :: missing
     t = 0
     step = 0
     call snapshot_read(env%comm, path, snap, ok, errmsg)
@@ -43,25 +44,12 @@ contains
                snap%case_name // ''': it cannot restart case ''' // case_name // ''''
       return
     end if
-    kx0 = snapshot_find_field(snap, 'position_initial')
-    if (kx0 == 0) then
-      ok = .false.
-      errmsg = '&run restart = ''' // path // ''' has no position_initial dataset ' // &
+    call particles_from_snapshot(snap, dim, parts, ok, missing)
+    if (.not. ok) then
+      errmsg = '&run restart = ''' // path // ''' has no ' // missing // ' dataset ' // &
                '(written by an older version): it cannot be restarted from'
       return
     end if
-    n = snap%n_local
-    call particles_allocate(parts, dim, max(n, 1))
-    parts%n = n
-    do k = 1, n
-      parts%x(1:dim, k) = snap%x(1:dim, k)
-      parts%u(1:dim, k) = snap%u(1:dim, k)
-      parts%x0(1:dim, k) = snap%extra(kx0)%v(1:dim, k)
-      parts%rho(k) = snap%rho(k)
-      parts%p(k) = snap%p(k)
-      parts%m(k) = snap%m(k)
-      parts%id(k) = snap%id(k)
-    end do
     t = snap%time
     step = snap%step
   end subroutine restart_read

@@ -24,6 +24,7 @@ module simulation
   use fileutil, only: make_directory, join_path, rename_file, temp_path, file_exists
   use snapshot_io, only: snapshot_field_t, snapshot_write, snapshot_filename, &
                          xdmf_index_t, xdmf_init
+  use particle_io, only: particles_snapshot_fields
   use timeseries, only: timeseries_t, timeseries_init, timeseries_add, timeseries_flush, &
                         timeseries_load
   use restart, only: restart_read, restart_index_history, snapshot_number
@@ -390,29 +391,25 @@ contains
     type(case_fields_t) :: f
     type(snapshot_field_t), allocatable :: extra(:)
     character(len=:), allocatable :: errmsg
-    integer :: k, nv, ns, n
+    integer :: k, nv, ns
     ok = .true.
     if (cfg%output%snapshots) then
-      n = s%parts%n
       call run%problem%fields(t, s%parts, f)
       nv = size(f%vector_names)
       ns = size(f%scalar_names)
-      ! every case: the initial positions (Lagrangian labels), for restarts
-      allocate(extra(nv + ns + 1))
-      extra(1)%name = 'position_initial'
-      extra(1)%v = s%parts%x0(:, 1:n)
+      allocate(extra(nv + ns))
       do k = 1, nv
-        extra(1 + k)%name = trim(f%vector_names(k))
-        extra(1 + k)%v = f%vectors(:, :, k)
+        extra(k)%name = trim(f%vector_names(k))
+        extra(k)%v = f%vectors(:, :, k)
       end do
       do k = 1, ns
-        extra(1 + nv + k)%name = trim(f%scalar_names(k))
-        extra(1 + nv + k)%s = f%scalars(:, k)
+        extra(nv + k)%name = trim(f%scalar_names(k))
+        extra(nv + k)%s = f%scalars(:, k)
       end do
       call snapshot_write(env%comm, join_path(run%dir, snapshot_filename(run%n_snapshots)), &
-                          t, step, s%parts%dim, trim(cfg%run%case_name), n, s%parts%id, &
-                          s%parts%x, s%parts%u, s%parts%rho, s%parts%p, s%parts%m, ok, errmsg, &
-                          extra=extra, attr_names=f%attr_names, attr_values=f%attr_values, &
+                          t, step, s%parts%dim, trim(cfg%run%case_name), s%parts%n, &
+                          particles_snapshot_fields(s%parts, extra), &
+                          ok, errmsg, attr_names=f%attr_names, attr_values=f%attr_values, &
                           index=run%xdmf)
       if (.not. ok) then
         if (env%rank == 0) write(error_unit, '(a)') 'sph: error: ' // errmsg

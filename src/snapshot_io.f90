@@ -46,20 +46,21 @@ module snapshot_io
   private
   public :: snapshot_field_t, snapshot_t, xdmf_index_t
   public :: snapshot_write, snapshot_read, snapshot_filename
-  public :: snapshot_find_field, snapshot_find_attribute
+  public :: snapshot_find_field, snapshot_find_attribute, snapshot_get_field
   public :: xdmf_init, xdmf_add, xdmf_write
   public :: SNAPSHOT_NAME_LEN, SNAPSHOT_FORMAT_VERSION
 
-  integer, parameter :: SNAPSHOT_NAME_LEN = 64      !< longest extra field or attribute name
+  integer, parameter :: SNAPSHOT_NAME_LEN = 64      !< longest field or attribute name
   integer, parameter :: SNAPSHOT_FORMAT_VERSION = 1 !< root attribute `format_version`
 
-  !> A named extra field: scalar s(n) or vector v(dim, n); exactly one is
-  !> allocated.  Arrays may be longer than the local count (capacity, halo):
-  !> only the first n_local entries are written.
+  !> A named field: real scalar s(n), real vector v(dim, n) or int64 i(n);
+  !> exactly one is allocated.  Arrays may be longer than the local count
+  !> (capacity, halo): only the first n_local entries are written.
   type :: snapshot_field_t
     character(len=:), allocatable :: name
     real(wp), allocatable :: s(:)
     real(wp), allocatable :: v(:,:)
+    integer(i8), allocatable :: i(:)
   end type snapshot_field_t
 
   !> A snapshot as read back: this rank's contiguous block of rows
@@ -87,6 +88,7 @@ module snapshot_io
     integer :: dim = 0
     character(len=SNAPSHOT_NAME_LEN), allocatable :: names(:)   !< extra fields
     integer, allocatable :: ncomp(:)                            !< 1 or dim
+    logical, allocatable :: int8(:)                             !< int64, else float64
   end type xdmf_entry_t
 
   !> The XDMF index of a run: the entries so far, rewritten whole (and
@@ -98,9 +100,13 @@ module snapshot_io
     type(xdmf_entry_t), allocatable :: entries(:)
   end type xdmf_index_t
 
+  !> The datasets of every snapshot: the first six are the fields the
+  !> writer must be given, of the kinds in STANDARD_KINDS (v vector, s
+  !> scalar, i int64); connectivity it makes itself.
   character(len=*), parameter :: STANDARD_DATASETS(7) = &
     [character(len=12) :: 'position', 'velocity', 'density', 'pressure', 'mass', 'id', &
                           'connectivity']
+  character(len=*), parameter :: STANDARD_KINDS = 'vvsssi'
   character(len=*), parameter :: RESERVED_ATTRIBUTES(5) = &
     [character(len=14) :: 'time', 'step', 'dim', 'case', 'format_version']
 
@@ -116,48 +122,46 @@ contains
   end function snapshot_filename
 
   !> Writes one snapshot collectively.  Every rank passes its n_local
-  !> particles (arrays may be longer: the first n_local entries are written;
-  !> x and u may have more rows than dim: the first dim rows are written).
-  !> time, step, dim, case_name, the names and kinds of `extra` and the
-  !> attributes must be the same on every rank.  `extra` adds datasets,
+  !> particles as `fields`, one dataset each in the order given: the
+  !> standard ones (position, velocity, density, pressure, mass, id) and
+  !> any others, the extra fields (arrays may be longer: the first n_local
+  !> entries are written; vectors may have more rows than dim: the first
+  !> dim rows are written).  time, step, dim, case_name, the names and kinds
+  !> of the fields and the attributes must be the same on every rank.
   !> attr_names/attr_values add real root attributes.  If `index` is given,
   !> the snapshot is added to it and the index file is rewritten (the
   !> snapshot's name in the index is relative to the index's directory).
-  subroutine snapshot_write(comm, filename, time, step, dim, case_name, n_local, &
-                            id, x, u, rho, p, m, ok, errmsg, &
-                            extra, attr_names, attr_values, index)
+  subroutine snapshot_write(comm, filename, time, step, dim, case_name, n_local, fields, &
+                            ok, errmsg, attr_names, attr_values, index)
     type(MPI_Comm), intent(in) :: comm
     character(len=*), intent(in) :: filename, case_name
     real(wp), intent(in) :: time
     integer, intent(in) :: step, dim, n_local
-    integer(i8), intent(in), target, contiguous :: id(:)
-    real(wp), intent(in), target, contiguous :: x(:,:), u(:,:), rho(:), p(:), m(:)
+    type(snapshot_field_t), intent(in), target :: fields(:)
     logical, intent(out) :: ok
     character(len=:), allocatable, intent(out) :: errmsg
-    type(snapshot_field_t), intent(in), target, optional :: extra(:)
     character(len=*), intent(in), optional :: attr_names(:)
     real(wp), intent(in), optional :: attr_values(:)
     type(xdmf_index_t), intent(inout), optional :: index
 
     integer(i8) :: n8, offset, n_global
     integer(hid_t) :: file_id, dxpl
-    integer :: err, k, rank, nextra, counts(2)
+    integer :: err, k, rank, nfields, counts(2)
     character(len=:), allocatable :: tmp, rel
     logical :: closed
     real(wp), target :: rdummy(1)
     integer(i8), target :: idummy(1)
 
     call MPI_Comm_rank(comm, rank)
-    nextra = 0
-    if (present(extra)) nextra = size(extra)
+    nfields = size(fields)
 
     ! ---- arguments (local), then agreement before any collective call ----
     call check_arguments(ok, errmsg)
-    counts = [nextra, -nextra]
+    counts = [nfields, -nfields]
     call MPI_Allreduce(MPI_IN_PLACE, counts, 2, MPI_INTEGER, MPI_MAX, comm)
     if (ok .and. counts(1) /= -counts(2)) then
       ok = .false.
-      errmsg = 'snapshot_write: ranks pass different numbers of extra fields'
+      errmsg = 'snapshot_write: ranks pass different numbers of fields'
     end if
     call agree_ok(comm, ok, errmsg)
     if (.not. ok) return
@@ -178,23 +182,20 @@ contains
     io: block
       if (.not. open_parallel(tmp, .true., comm, file_id, dxpl, errmsg)) exit io
 
-      if (.not. write_real(file_id, dxpl, 'position', x, size(x, 1), dim)) exit io
-      if (.not. write_real(file_id, dxpl, 'velocity', u, size(u, 1), dim)) exit io
-      if (.not. write_real(file_id, dxpl, 'density', rho, 1, 1)) exit io
-      if (.not. write_real(file_id, dxpl, 'pressure', p, 1, 1)) exit io
-      if (.not. write_real(file_id, dxpl, 'mass', m, 1, 1)) exit io
-      if (.not. write_block(file_id, dxpl, 'id', H5T_STD_I64LE, &
-                            h5kind_to_type(i8, H5_INTEGER_KIND), loc_i1(id, idummy), &
-                            1, 1, n_local, offset, n_global, errmsg)) exit io
-      if (.not. write_connectivity()) exit io
-      do k = 1, nextra
-        if (allocated(extra(k)%s)) then
-          if (.not. write_real(file_id, dxpl, extra(k)%name, extra(k)%s, 1, 1)) exit io
-        else
-          if (.not. write_real(file_id, dxpl, extra(k)%name, extra(k)%v, &
-                               size(extra(k)%v, 1), dim)) exit io
-        end if
+      do k = 1, nfields
+        associate (f => fields(k))
+          if (allocated(f%i)) then
+            if (.not. write_block(file_id, dxpl, f%name, H5T_STD_I64LE, &
+                                  h5kind_to_type(i8, H5_INTEGER_KIND), loc_i1(f%i, idummy), &
+                                  1, 1, n_local, offset, n_global, errmsg)) exit io
+          else if (allocated(f%s)) then
+            if (.not. write_real(file_id, dxpl, f%name, f%s, 1, 1)) exit io
+          else
+            if (.not. write_real(file_id, dxpl, f%name, f%v, size(f%v, 1), dim)) exit io
+          end if
+        end associate
       end do
+      if (.not. write_connectivity()) exit io
 
       if (.not. write_attr_real(file_id, 'time', time, errmsg)) exit io
       if (.not. write_attr_int(file_id, 'step', step, errmsg)) exit io
@@ -241,7 +242,7 @@ contains
       else
         rel = filename
       end if
-      call xdmf_add(index, time, rel, n_global, dim, extra)
+      call xdmf_add(index, time, rel, n_global, dim, fields)
       call xdmf_write(comm, index, ok, errmsg)
     end if
 
@@ -271,18 +272,12 @@ contains
     subroutine check_arguments(good, msg)
       logical, intent(out) :: good
       character(len=:), allocatable, intent(out) :: msg
-      integer :: j, l
+      integer :: j, l, k
       good = .false.
       if (dim /= 2 .and. dim /= 3) then
         msg = 'snapshot_write: dim must be 2 or 3'
       else if (n_local < 0) then
         msg = 'snapshot_write: negative n_local'
-      else if (size(id) < n_local .or. size(rho) < n_local .or. size(p) < n_local &
-               .or. size(m) < n_local) then
-        msg = 'snapshot_write: id, rho, p or m is shorter than n_local'
-      else if (size(x, 1) < dim .or. size(x, 2) < n_local .or. size(u, 1) < dim &
-               .or. size(u, 2) < n_local) then
-        msg = 'snapshot_write: x or u is smaller than (dim, n_local)'
       else if (present(attr_names) .neqv. present(attr_values)) then
         msg = 'snapshot_write: give attr_names and attr_values together'
       else
@@ -310,29 +305,50 @@ contains
           end if
         end do
       end if
-      do j = 1, nextra
+      do j = 1, nfields
         msg = ''
-        if (.not. allocated(extra(j)%name)) then
-          msg = 'snapshot_write: an extra field has no name'
-        else if (.not. valid_name(extra(j)%name)) then
-          msg = 'snapshot_write: invalid field name "' // extra(j)%name // '"'
-        else if (any(STANDARD_DATASETS == extra(j)%name)) then
-          msg = 'snapshot_write: extra field "' // extra(j)%name // '" is a standard dataset'
-        else if (allocated(extra(j)%s) .eqv. allocated(extra(j)%v)) then
-          msg = 'snapshot_write: extra field "' // extra(j)%name // &
-                '" needs exactly one of s (scalar) and v (vector)'
-        else if (allocated(extra(j)%s)) then
-          if (size(extra(j)%s) < n_local) &
-            msg = 'snapshot_write: extra field "' // extra(j)%name // '" is shorter than n_local'
-        else if (size(extra(j)%v, 1) < dim .or. size(extra(j)%v, 2) < n_local) then
-          msg = 'snapshot_write: extra field "' // extra(j)%name // &
-                '" is smaller than (dim, n_local)'
+        if (.not. allocated(fields(j)%name)) then
+          msg = 'snapshot_write: a field has no name'
+        else if (.not. valid_name(fields(j)%name)) then
+          msg = 'snapshot_write: invalid field name "' // fields(j)%name // '"'
+        else if (fields(j)%name == 'connectivity') then
+          msg = 'snapshot_write: field "connectivity" is made by the writer'
+        else if (count([allocated(fields(j)%s), allocated(fields(j)%v), &
+                        allocated(fields(j)%i)]) /= 1) then
+          msg = 'snapshot_write: field "' // fields(j)%name // &
+                '" needs exactly one of s (scalar), v (vector) and i (int64)'
+        else if (allocated(fields(j)%s)) then
+          if (size(fields(j)%s) < n_local) &
+            msg = 'snapshot_write: field "' // fields(j)%name // '" is shorter than n_local'
+        else if (allocated(fields(j)%i)) then
+          if (size(fields(j)%i) < n_local) &
+            msg = 'snapshot_write: field "' // fields(j)%name // '" is shorter than n_local'
+        else if (size(fields(j)%v, 2) < n_local) then
+          msg = 'snapshot_write: field "' // fields(j)%name // '" is shorter than n_local'
+        else if (size(fields(j)%v, 1) < dim) then
+          msg = 'snapshot_write: field "' // fields(j)%name // '" has fewer than dim rows'
         end if
         if (len(msg) == 0) then
           do l = 1, j - 1
-            if (extra(l)%name == extra(j)%name) &
-              msg = 'snapshot_write: extra field "' // extra(j)%name // '" is repeated'
+            if (fields(l)%name == fields(j)%name) &
+              msg = 'snapshot_write: field "' // fields(j)%name // '" is repeated'
           end do
+        end if
+        if (len(msg) > 0) then
+          good = .false.
+          return
+        end if
+      end do
+      ! the standard datasets, of their kinds (snapshot_read needs them)
+      msg = ''
+      do l = 1, len(STANDARD_KINDS)
+        j = findloc([(fields(k)%name == trim(STANDARD_DATASETS(l)), k = 1, nfields)], &
+                    .true., dim=1)
+        if (j == 0) then
+          msg = 'snapshot_write: no field "' // trim(STANDARD_DATASETS(l)) // '"'
+        else if (kind_of(fields(j)) /= STANDARD_KINDS(l:l)) then
+          msg = 'snapshot_write: field "' // trim(STANDARD_DATASETS(l)) // &
+                '" is not of its standard kind'
         end if
         if (len(msg) > 0) then
           good = .false.
@@ -627,6 +643,36 @@ contains
     k = 0
   end function snapshot_find_attribute
 
+  !> Field `name` of a snapshot read back, standard or extra, as a copy of
+  !> this rank's rows; found is false if the snapshot has no such field.
+  subroutine snapshot_get_field(snap, name, field, found)
+    type(snapshot_t), intent(in) :: snap
+    character(len=*), intent(in) :: name
+    type(snapshot_field_t), intent(out) :: field
+    logical, intent(out) :: found
+    integer :: k
+    found = .true.
+    field%name = name
+    select case (name)
+    case ('position')
+      field%v = snap%x
+    case ('velocity')
+      field%v = snap%u
+    case ('density')
+      field%s = snap%rho
+    case ('pressure')
+      field%s = snap%p
+    case ('mass')
+      field%s = snap%m
+    case ('id')
+      field%i = snap%id
+    case default
+      k = snapshot_find_field(snap, name)
+      found = k > 0
+      if (found) field = snap%extra(k)
+    end select
+  end subroutine snapshot_get_field
+
   ! ==================== XDMF index ====================
 
   !> Starts an empty index that will be written to `path` (snapshots.xdmf).
@@ -639,15 +685,16 @@ contains
   end subroutine xdmf_init
 
   !> Adds a snapshot: its time, its file name as the index should refer to
-  !> it (relative to the index's directory), N, dim, and the extra fields
-  !> (only their names and kinds are used).
-  subroutine xdmf_add(index, time, file, n_global, dim, extra)
+  !> it (relative to the index's directory), N, dim, and its fields (only
+  !> their names and kinds are used; the standard ones have fixed places in
+  !> every grid, the others follow them in the order given).
+  subroutine xdmf_add(index, time, file, n_global, dim, fields)
     type(xdmf_index_t), intent(inout) :: index
     real(wp), intent(in) :: time
     character(len=*), intent(in) :: file
     integer(i8), intent(in) :: n_global
     integer, intent(in) :: dim
-    type(snapshot_field_t), intent(in), optional :: extra(:)
+    type(snapshot_field_t), intent(in) :: fields(:)
     type(xdmf_entry_t), allocatable :: grown(:)
     integer :: k, nextra
     if (.not. allocated(index%entries)) allocate(index%entries(16))
@@ -657,18 +704,23 @@ contains
       call move_alloc(grown, index%entries)
     end if
     index%count = index%count + 1
-    nextra = 0
-    if (present(extra)) nextra = size(extra)
     associate (e => index%entries(index%count))
       e%time = time
       e%file = file
       e%n = n_global
       e%dim = dim
-      allocate(e%names(nextra), e%ncomp(nextra))
-      do k = 1, nextra
-        e%names(k) = extra(k)%name
-        e%ncomp(k) = merge(1, dim, allocated(extra(k)%s))
+      allocate(e%names(size(fields)), e%ncomp(size(fields)), e%int8(size(fields)))
+      nextra = 0
+      do k = 1, size(fields)
+        if (any(STANDARD_DATASETS == fields(k)%name)) cycle
+        nextra = nextra + 1
+        e%names(nextra) = fields(k)%name
+        e%ncomp(nextra) = merge(dim, 1, allocated(fields(k)%v))
+        e%int8(nextra) = allocated(fields(k)%i)
       end do
+      e%names = e%names(1:nextra)
+      e%ncomp = e%ncomp(1:nextra)
+      e%int8 = e%int8(1:nextra)
     end associate
   end subroutine xdmf_add
 
@@ -723,7 +775,9 @@ contains
           call attribute(e%file, 'mass', n, 'Scalar', 'Float')
           call attribute(e%file, 'id', n, 'Scalar', 'Int')
           do j = 1, size(e%names)
-            if (e%ncomp(j) == 1) then
+            if (e%int8(j)) then
+              call attribute(e%file, trim(e%names(j)), n, 'Scalar', 'Int')
+            else if (e%ncomp(j) == 1) then
               call attribute(e%file, trim(e%names(j)), n, 'Scalar', 'Float')
             else
               call attribute(e%file, trim(e%names(j)), nd, 'Vector', 'Float')
@@ -761,6 +815,14 @@ contains
   ! ==================== internals ====================
 
   !> Bytes per entry of the connectivity dataset: 4 while N < 2^31.
+  !> A field's kind as STANDARD_KINDS spells it.
+  pure character function kind_of(field)
+    type(snapshot_field_t), intent(in) :: field
+    kind_of = 'v'
+    if (allocated(field%s)) kind_of = 's'
+    if (allocated(field%i)) kind_of = 'i'
+  end function kind_of
+
   integer function connectivity_precision(n_global)
     integer(i8), intent(in) :: n_global
     connectivity_precision = merge(4, 8, n_global < 2_i8**31)

@@ -1,0 +1,86 @@
+!> Particles to and from snapshots through the field registry
+!> (particle_fields): the snapshot fields of the owned particles, and the
+!> particles of a snapshot read back.
+module particle_io
+  use kinds, only: wp, i8
+  use particle_fields, only: FIELD_TABLE, SNAPSHOT_FIELDS, RESTART_FIELDS
+  use particles, only: particles_t, particles_allocate, particles_field, particles_field_i8
+  use snapshot_io, only: snapshot_field_t, snapshot_t, snapshot_get_field
+  implicit none
+  private
+  public :: particles_snapshot_fields, particles_from_snapshot
+
+contains
+
+  !> The registered snapshot fields of the owned particles, in table order
+  !> (vectors with their 3 rows: the snapshot keeps the first dim), then
+  !> `extra`.
+  function particles_snapshot_fields(parts, extra) result(fields)
+    type(particles_t), intent(in), target :: parts
+    type(snapshot_field_t), intent(in) :: extra(:)
+    type(snapshot_field_t), allocatable :: fields(:)
+    real(wp), pointer, contiguous :: a(:, :)
+    integer(i8), pointer, contiguous :: ia(:)
+    integer :: j, f, n
+    n = parts%n
+    allocate(fields(size(SNAPSHOT_FIELDS) + size(extra)))
+    do j = 1, size(SNAPSHOT_FIELDS)
+      f = SNAPSHOT_FIELDS(j)
+      fields(j)%name = trim(FIELD_TABLE(f)%name)
+      if (FIELD_TABLE(f)%integer8) then
+        ia => particles_field_i8(parts, f)
+        fields(j)%i = ia(1:n)
+      else if (FIELD_TABLE(f)%ncomp == 1) then
+        a => particles_field(parts, f)
+        fields(j)%s = a(1, 1:n)
+      else
+        a => particles_field(parts, f)
+        fields(j)%v = a(:, 1:n)
+      end if
+    end do
+    do j = 1, size(extra)
+      fields(size(SNAPSHOT_FIELDS) + j) = extra(j)
+    end do
+  end function particles_snapshot_fields
+
+  !> This rank's rows of snapshot `snap` as owned particles of dimension
+  !> dim, every registered restart field from its dataset; fails naming the
+  !> first dataset the snapshot lacks.
+  subroutine particles_from_snapshot(snap, dim, parts, ok, missing)
+    type(snapshot_t), intent(in) :: snap
+    integer, intent(in) :: dim
+    type(particles_t), intent(inout), target :: parts
+    logical, intent(out) :: ok
+    character(len=:), allocatable, intent(out) :: missing
+    type(snapshot_field_t) :: sf
+    real(wp), pointer, contiguous :: a(:, :)
+    integer(i8), pointer, contiguous :: ia(:)
+    integer :: j, f, n
+    n = snap%n_local
+    call particles_allocate(parts, dim, max(n, 1))
+    parts%n = n
+    missing = ''
+    do j = 1, size(RESTART_FIELDS)
+      f = RESTART_FIELDS(j)
+      call snapshot_get_field(snap, trim(FIELD_TABLE(f)%name), sf, ok)
+      if (ok) ok = allocated(sf%i) .eqv. FIELD_TABLE(f)%integer8
+      if (ok) ok = allocated(sf%s) .eqv. (FIELD_TABLE(f)%ncomp == 1 .and. &
+                                          .not. FIELD_TABLE(f)%integer8)
+      if (.not. ok) then
+        missing = trim(FIELD_TABLE(f)%name)
+        return
+      end if
+      if (allocated(sf%i)) then
+        ia => particles_field_i8(parts, f)
+        ia(1:n) = sf%i(1:n)
+      else if (allocated(sf%s)) then
+        a => particles_field(parts, f)
+        a(1, 1:n) = sf%s(1:n)
+      else
+        a => particles_field(parts, f)
+        a(1:dim, 1:n) = sf%v(1:dim, 1:n)
+      end if
+    end do
+  end subroutine particles_from_snapshot
+
+end module particle_io
