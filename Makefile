@@ -2,14 +2,26 @@
 # executable is ./sph.  Dependencies between modules are read from the `use`
 # statements (file name = module name), so the order is automatic.
 
-FC      ?= mpifort
-FC      := mpifort
+# FC: the MPI Fortran wrapper (make's built-in default f77 is replaced;
+# `make FC=...` or the environment picks another).
+ifeq ($(origin FC),default)
+  FC := mpifort
+endif
 PYTHON  ?= /usr/bin/python3
 BUILD   ?= build/release
 NP_TEST ?= 1 2 3
 
-HDF5_INC := /usr/include/hdf5/openmpi
-HDF5_LIB := /usr/lib/x86_64-linux-gnu/hdf5/openmpi
+# Parallel HDF5 from its pkg-config file (Debian: libhdf5-openmpi-dev); set
+# HDF5_INC (where hdf5.mod is) and HDF5_LIB (where libhdf5_fortran is) to use
+# another installation.
+HDF5_PC  ?= hdf5-openmpi
+HDF5_INC ?= $(patsubst -I%,%,$(firstword $(shell pkg-config --cflags-only-I $(HDF5_PC) 2>/dev/null)))
+HDF5_LIB ?= $(patsubst -L%,%,$(firstword $(shell pkg-config --libs-only-L $(HDF5_PC) 2>/dev/null)))
+HDF5_INC := $(HDF5_INC)
+HDF5_LIB := $(HDF5_LIB)
+ifeq ($(strip $(HDF5_INC)),)
+  $(error parallel HDF5 not found by pkg-config $(HDF5_PC): install libhdf5-openmpi-dev, or set HDF5_INC and HDF5_LIB)
+endif
 
 # -march=native: the code is always compiled on the machine that runs it
 # (README, CI); it enables AVX2/FMA on these machines.  No -ffast-math: NaN
