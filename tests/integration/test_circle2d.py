@@ -25,10 +25,11 @@ def test_short_run_accuracy(short_run):
     # Thresholds: 1.5x the errors measured at this resolution (N = 1,250,
     # t A0 = 0.5) with the input file's scheme (packed particles,
     # renormalised divergence, higher-order pressure gradient blended and
-    # capped at 0.9): RMS velocity 0.416 %, RMS position 0.118 %, largest
-    # semi-axis error 0.158 %, KE change -0.491 %, time-averaged raw centre
-    # pressure 1.39 % of P(0) (the standard operators: 1.32 % velocity at
-    # 1,250 on rings, which these thresholds reject).
+    # capped at 0.9, c0 = 12.5, alpha = 0.008, delta = 0.2): RMS velocity
+    # 0.406 %, RMS position 0.117 %, largest semi-axis error 0.074 %, KE
+    # change -0.570 %, time-averaged raw centre pressure 2.53 % of P(0)
+    # (the standard operators: 1.32 % velocity at 1,250 on rings, which
+    # these thresholds reject).
     d, _ = short_run
     ts = read_timeseries(d / "timeseries.csv")
     last = {k: v[-1] for k, v in ts.items()}
@@ -38,9 +39,9 @@ def test_short_run_accuracy(short_run):
     assert abs(last["p_centre_exact"] - 0.231943) < 2e-6
     assert last["rms_velocity_error"] < 0.0062, last["rms_velocity_error"]
     assert last["rms_position_error"] < 0.0018, last["rms_position_error"]
-    assert max(abs(last["semi_axis_1_error"]), abs(last["semi_axis_2_error"])) < 0.0024
+    assert max(abs(last["semi_axis_1_error"]), abs(last["semi_axis_2_error"])) < 0.0011
     ke0 = ts["kinetic_energy"][0]
-    assert abs(last["kinetic_energy"] / ke0 - 1) < 0.0074, last["kinetic_energy"] / ke0
+    assert abs(last["kinetic_energy"] / ke0 - 1) < 0.0086, last["kinetic_energy"] / ke0
     # the exact flow keeps the kinetic energy of these particles constant
     # when their mass-weighted second moments are isotropic, as on rings;
     # packed particles are isotropic to a few 1e-5 (measured 2.7e-5 here)
@@ -51,7 +52,7 @@ def test_short_run_accuracy(short_run):
     assert abs(kex[0] / (math.pi / 4) - 1) < 0.01
     p = np.array(ts["p_probe_1"])
     pe = np.array(ts["p_centre_exact"])
-    assert np.mean(np.abs(p - pe)) / 0.5 < 0.021
+    assert np.mean(np.abs(p - pe)) / 0.5 < 0.038
 
 
 def test_conservation(scratch):
