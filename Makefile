@@ -1,6 +1,8 @@
-# sph: build, test, clean.  Objects and module files go to $(BUILD); the
-# executable is ./sph.  Dependencies between modules are read from the `use`
-# statements (file name = module name), so the order is automatic.
+# sph: build, test, clean.  The sources are src/<layer>/*.f90, one folder per
+# layer (doc/architecture.md); objects and module files go to $(BUILD), flat;
+# the executable is ./sph.  Dependencies between modules are read from the
+# `use` statements (file name = module name, unique over the folders), so the
+# order is automatic and a new file or folder needs no edit here.
 
 # FC: the MPI Fortran wrapper (make's built-in default f77 is replaced;
 # `make FC=...` or the environment picks another).
@@ -31,18 +33,20 @@ WFLAGS   := -std=f2018 -Wall -Wextra -Wimplicit-interface -fimplicit-none
 FFLAGS   := $(OPTFLAGS) $(WFLAGS) -J$(BUILD) -I$(BUILD) -I$(HDF5_INC) -I/usr/include
 LDLIBS   := -L$(HDF5_LIB) -Wl,-rpath,$(HDF5_LIB) -lhdf5_fortran -lhdf5 -lfftw3 -lmetis
 
-# EXCLUDE (file names without extension) leaves work in progress out of a
-# build, e.g. EXCLUDE=test_eos a unit-test suite.
+# EXCLUDE (file names without extension or folder) leaves work in progress
+# out of a build, e.g. EXCLUDE=test_eos a unit-test suite.
 EXCLUDE   ?=
-SRC       := $(filter-out $(patsubst %,src/%.f90,$(EXCLUDE)),$(wildcard src/*.f90))
-LIB_SRC   := $(filter-out src/main.f90,$(SRC))
+SRC_DIRS  := $(patsubst %/,%,$(sort $(dir $(wildcard src/*/*.f90))))
+SRC       := $(filter-out $(addprefix %/,$(addsuffix .f90,$(EXCLUDE))),$(wildcard src/*/*.f90))
+LIB_SRC   := $(filter-out %/main.f90,$(SRC))
 SUITES    := $(filter-out $(patsubst test_%,%,$(EXCLUDE)),\
                $(patsubst tests/unit/test_%.pf,%,$(wildcard tests/unit/test_*.pf)))
 PF_SRC    := $(patsubst %,tests/unit/test_%.pf,$(SUITES))
 
-LIB_OBJ   := $(patsubst src/%.f90,$(BUILD)/%.o,$(LIB_SRC))
+# sorted by name: the link order of the flat layout
+LIB_OBJ   := $(sort $(patsubst %.f90,$(BUILD)/%.o,$(notdir $(LIB_SRC))))
 
-vpath %.f90 src tests
+vpath %.f90 $(SRC_DIRS) tests
 
 .PHONY: all sph debug test unit bench validate clean
 all: sph
@@ -69,7 +73,7 @@ $(BUILD)/deps.mk: $(DEP_SRC) | $(BUILD)
 	  b=$$(basename $$f); b=$${b%.*}; \
 	  case $$f in *.pf) o="$(PF2F90)/$$b.o $(PFB)/$$b.o";; *) o=$(BUILD)/$$b.o;; esac; \
 	  for m in $$(sed -nE 's/^[[:space:]]*use[[:space:]]*(,[[:space:]]*non_intrinsic[[:space:]]*::)?[[:space:]]*([A-Za-z0-9_]+).*/\2/Ip' $$f | tr A-Z a-z | sort -u); do \
-	    for d in src tests; do \
+	    for d in $(SRC_DIRS) tests; do \
 	      if [ -f $$d/$$m.f90 ] && [ $$m != $$b ]; then echo "$$o: $(BUILD)/$$m.o"; fi; \
 	    done; \
 	  done; \

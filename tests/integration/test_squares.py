@@ -22,7 +22,7 @@ VORTICAL = "input/square_vortical.nml"
 
 def dominant_frequency(t, y, f_min):
     """Frequency of the highest spectral peak of y(t) above f_min, computed
-    here with numpy independently of the solver's own (src/spectrum.f90):
+    here with numpy independently of the solver's own (src/core/spectrum.f90):
     even resampling, quadratic detrend, Hann window, 8x zero padding, and a
     parabola through the log power around the peak."""
     t = np.asarray(t)
@@ -164,7 +164,7 @@ def test_tensile_control_prevents_fragmentation(fragmentation_runs):
     # The rotating square's pressure is negative everywhere: without the
     # tensile control (E7) particles pair up and open voids, then break
     # away.  Fragmentation indicator: holes of the fluid region (the union
-    # of discs of 1.5 dx around the particles, src/flow_diagnostics.f90)
+    # of discs of 1.5 dx around the particles, src/sph/flow_diagnostics.f90)
     # and its number of components.  Measured with 2,500 particles:
     #   no control: 4 holes at t omega = 2, 8 by 2.5, 5 components and the
     #     largest holding 24 % of the particles at 3;

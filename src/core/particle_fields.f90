@@ -4,7 +4,7 @@
 !> loop over this table instead of naming the fields (doc/parallel.md).
 !>
 !> Adding a field: its FIELD_ constant and row here, and in
-!> src/particles.f90 its array in particles_t, its allocation and its case
+!> src/core/particles.f90 its array in particles_t, its allocation and its case
 !> in particles_field (or particles_field_i8).
 module particle_fields
   implicit none
