@@ -15,7 +15,7 @@ module sorting
 
 contains
 
-  subroutine sort_index_i8(key, idx)
+  pure subroutine sort_index_i8(key, idx)
     integer(i8), intent(in) :: key(:)
     integer, intent(inout) :: idx(:)
     integer, allocatable :: merged(:)
@@ -50,7 +50,7 @@ contains
   !> Real keys through integers of the same order: the IEEE bits as a
   !> signed integer order the non-negative values; flipping all but the
   !> sign bit orders the negative ones.  -0 and +0 map alike (equal keys).
-  subroutine sort_index_wp(key, idx)
+  pure subroutine sort_index_wp(key, idx)
     real(wp), intent(in) :: key(:)
     integer, intent(inout) :: idx(:)
     integer(i8), allocatable :: ikey(:)

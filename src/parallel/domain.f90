@@ -10,6 +10,7 @@
 !> a halo, which is correct however thin a region is.
 module domain
   use kinds, only: wp, i8
+  use sorting, only: sort_index
   use parallel_env, only: parallel_env_t, par_sum, par_max, par_min, par_sum_array, &
                           par_bcast_int
   use metis_partition, only: partition_graph
@@ -68,7 +69,7 @@ contains
     real(wp), intent(in) :: x(3), radius
     integer, intent(inout) :: ranks(:)
     integer, intent(out) :: nr
-    integer :: me, q, c(3), c0(3), layers, i, j, k, zr, o
+    integer :: me, q, c(3), c0(3), layers, i, j, k, zr, o, idx(size(ranks))
     nr = 0
     if (d%nranks == 1) return
     me = domain_owner(d, x)
@@ -97,24 +98,13 @@ contains
           end do
         end do
       end do
-      call sort_small(ranks(1:nr))
+      ! ascending rank order: the same order of messages on every run
+      idx(1:nr) = [(i, i = 1, nr)]
+      call sort_index(int(ranks(1:nr), i8), idx(1:nr))
+      ranks(1:nr) = ranks(idx(1:nr))
     end if
   end subroutine domain_ranks_near
 
-  pure subroutine sort_small(a)
-    integer, intent(inout) :: a(:)
-    integer :: i, j, v
-    do i = 2, size(a)
-      v = a(i)
-      j = i - 1
-      do while (j >= 1)
-        if (a(j) <= v) exit
-        a(j + 1) = a(j)
-        j = j - 1
-      end do
-      a(j + 1) = v
-    end do
-  end subroutine sort_small
 
   pure function cell_coords(d, x) result(c)
     type(domain_t), intent(in) :: d
@@ -196,6 +186,7 @@ contains
     ! is then a binary search
     allocate(xs(n), cw(0:n), idx(n))
     xs = x(d%axis, 1:n)
+    idx = [(i, i = 1, n)]
     call sort_index(xs, idx)
     xs = xs(idx)
     cw(0) = 0
@@ -258,40 +249,6 @@ contains
     c = lo
   end function count_below
 
-  !> Indices that sort a ascending (merge sort: stable, O(n log n)).
-  subroutine sort_index(a, idx)
-    real(wp), intent(in) :: a(:)
-    integer, intent(out) :: idx(:)
-    integer, allocatable :: tmp(:)
-    integer :: n, width, i, lo, mid, hi, l, r, k
-    n = size(a)
-    idx = [(i, i = 1, n)]
-    allocate(tmp(n))
-    width = 1
-    do while (width < n)
-      do lo = 1, n, 2 * width
-        mid = min(lo + width, n + 1)
-        hi = min(lo + 2 * width, n + 1)
-        l = lo; r = mid; k = lo
-        do while (l < mid .and. r < hi)
-          if (a(idx(r)) < a(idx(l))) then
-            tmp(k) = idx(r); r = r + 1
-          else
-            tmp(k) = idx(l); l = l + 1
-          end if
-          k = k + 1
-        end do
-        do while (l < mid)
-          tmp(k) = idx(l); l = l + 1; k = k + 1
-        end do
-        do while (r < hi)
-          tmp(k) = idx(r); r = r + 1; k = k + 1
-        end do
-      end do
-      idx = tmp
-      width = 2 * width
-    end do
-  end subroutine sort_index
 
   !> Owner-of-cell map from a METIS partition of the occupied cells: the
   !> grid covers the global bounding box; every rank builds the same global
