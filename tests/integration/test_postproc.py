@@ -330,6 +330,27 @@ def test_ellipsoid3d_errors_and_figure(tiny_run_ellipsoid3d):
     assert png.read_bytes()[:4] == b"\x89PNG"
 
 
+def test_velocity_split(tiny_run_ellipsoid3d):
+    # At t = 0 the velocity error of the prepared start is the compressible
+    # flow I1, u_c = -kappa x (1/3 - r^2/5): a cubic polynomial of the
+    # positions, so the smooth part is all of it (the rest is round-off).
+    # At every time the least-squares residual is orthogonal to the fit:
+    # total^2 = smooth^2 + rest^2.
+    d, _ = tiny_run_ellipsoid3d
+    text = script("errors", d, "--velocity-split").stdout
+    rows = [[float(v) for v in line.split()] for line in
+            text[text.index("velocity error split"):].splitlines()[2:] if line.strip()]
+    assert len(rows) >= 2
+    t0, total0, smooth0, rest0 = rows[0]
+    assert t0 == 0.0 and total0 > 0.1, rows[0]
+    assert rest0 < 1e-6 * total0, rows[0]
+    assert abs(smooth0 - total0) < 1e-6 * total0, rows[0]
+    # (the table prints 4 decimals: each square is off by at most 1e-4 x value)
+    for t, total, smooth, rest in rows:
+        assert abs(total**2 - smooth**2 - rest**2) < 2e-4 * (total + smooth + rest), \
+            (t, total, smooth, rest)
+
+
 def test_validate_quick_writes_report(scratch):
     # the whole chain on the two smallest circle2d runs (a few seconds)
     tmp = scratch("validate")
