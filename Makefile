@@ -19,10 +19,16 @@ NP_TEST ?= 1 2 3
 HDF5_PC  ?= hdf5-openmpi
 HDF5_INC ?= $(patsubst -I%,%,$(firstword $(shell pkg-config --cflags-only-I $(HDF5_PC) 2>/dev/null)))
 HDF5_LIB ?= $(patsubst -L%,%,$(firstword $(shell pkg-config --libs-only-L $(HDF5_PC) 2>/dev/null)))
+# without pkg-config: the paths the HDF5 compiler wrapper h5pfc uses
+ifeq ($(strip $(HDF5_INC)),)
+  HDF5_SHOW := $(shell h5pfc -show 2>/dev/null)
+  HDF5_INC := $(patsubst -I%,%,$(firstword $(filter -I%,$(HDF5_SHOW))))
+  HDF5_LIB := $(patsubst -L%,%,$(firstword $(filter -L%,$(HDF5_SHOW))))
+endif
 HDF5_INC := $(HDF5_INC)
 HDF5_LIB := $(HDF5_LIB)
 ifeq ($(strip $(HDF5_INC)),)
-  $(error parallel HDF5 not found by pkg-config $(HDF5_PC): install libhdf5-openmpi-dev, or set HDF5_INC and HDF5_LIB)
+  $(error parallel HDF5 not found by pkg-config $(HDF5_PC) nor h5pfc: install libhdf5-openmpi-dev, or set HDF5_INC and HDF5_LIB)
 endif
 
 # -march=native: the code is always compiled on the machine that runs it
