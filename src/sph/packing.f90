@@ -19,7 +19,7 @@ module packing
   use fluid_rhs, only: pair_buffers, in_range_pairs
   use neighbours, only: neighbour_list_t
   use solver, only: solver_t, solver_rebuild
-  use halo_exchange, only: halo_refresh
+  use decomposition, only: decomp_refresh
   use parallel_env, only: parallel_env_t, par_max, par_sum, par_sum_exact, wall_time
   implicit none
   private
@@ -202,7 +202,7 @@ contains
         rep%rebuilds = rep%rebuilds + 1
         moved = 0
       end if
-      call halo_refresh(s%dc%halo, env, s%parts)
+      call decomp_refresh(s%dc, env, s%parts)
       n = s%parts%n
       ntot = n + s%parts%n_halo
       ! work arrays as large as the particle arrays, which migration and
