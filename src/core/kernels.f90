@@ -128,69 +128,70 @@ contains
     end select
   end function kernel_f
 
-  !> F for a list of squared distances r2(1:n), all inside the support:
-  !> one call per particle instead of one per pair, and a loop the compiler
-  !> vectorises (the kind is chosen once, outside it).
+  !> F for a list of squared distances r2(1:n), zero outside the support
+  !> as kernel_f: one call per particle instead of one per pair, and a loop
+  !> without branches (the kind is chosen once, outside it; masks instead of
+  !> tests) that the compiler vectorises.  Pairs listed within the skin but
+  !> beyond the support thus contribute exact zeros.
   pure subroutine kernel_f_list(k, n, r2, f)
     type(kernel_t), intent(in) :: k
     integer, intent(in) :: n
     real(wp), intent(in) :: r2(n)
     real(wp), intent(out) :: f(n)
-    real(wp) :: q, s, c
+    real(wp) :: q, s, c, s2
     integer :: l
     select case (k%kind)
     case (KERNEL_WENDLAND_C2)
       c = -5.0_wp * k%norm * k%inv_h2
       do l = 1, n
-        s = 1.0_wp - 0.5_wp * sqrt(r2(l)) * k%inv_h
+        s = max(0.0_wp, 1.0_wp - 0.5_wp * sqrt(r2(l)) * k%inv_h)
         f(l) = c * s**3
       end do
     case (KERNEL_CUBIC_SPLINE)
       do l = 1, n
         q = sqrt(r2(l)) * k%inv_h
-        if (q < 1.0_wp) then
-          f(l) = k%norm * (-3.0_wp + 2.25_wp * q) * k%inv_h2
-        else
-          f(l) = -0.75_wp * k%norm * (2.0_wp - q)**2 / q * k%inv_h2
-        end if
+        s = max(0.0_wp, 2.0_wp - q)
+        ! the outer branch divides by q: bounded below where it is masked
+        f(l) = merge(k%norm * (-3.0_wp + 2.25_wp * q) * k%inv_h2, &
+                     -0.75_wp * k%norm * s**2 / max(q, 0.5_wp) * k%inv_h2, q < 1.0_wp)
       end do
     case (KERNEL_GAUSSIAN)
       c = -2.0_wp * k%norm * k%inv_h2
+      s2 = k%support**2
       do l = 1, n
-        f(l) = c * exp(-r2(l) * k%inv_h2)
+        f(l) = merge(c * exp(-min(r2(l), s2) * k%inv_h2), 0.0_wp, r2(l) < s2)
       end do
     end select
   end subroutine kernel_f_list
 
-  !> W for a list of squared distances r2(1:n), all inside the support (the
-  !> companion of kernel_f_list, for terms that need the kernel value, such
-  !> as the tensile instability control E7).
+  !> W for a list of squared distances r2(1:n), zero outside the support
+  !> (the companion of kernel_f_list, for terms that need the kernel value,
+  !> such as the tensile instability control E7).
   pure subroutine kernel_w_list(k, n, r2, w)
     type(kernel_t), intent(in) :: k
     integer, intent(in) :: n
     real(wp), intent(in) :: r2(n)
     real(wp), intent(out) :: w(n)
-    real(wp) :: q, s
+    real(wp) :: q, s, s2
     integer :: l
     select case (k%kind)
     case (KERNEL_WENDLAND_C2)
       do l = 1, n
         q = sqrt(r2(l)) * k%inv_h
-        s = 1.0_wp - 0.5_wp * q
+        s = max(0.0_wp, 1.0_wp - 0.5_wp * q)
         w(l) = k%norm * s**4 * (2.0_wp * q + 1.0_wp)
       end do
     case (KERNEL_CUBIC_SPLINE)
       do l = 1, n
         q = sqrt(r2(l)) * k%inv_h
-        if (q < 1.0_wp) then
-          w(l) = k%norm * (1.0_wp - 1.5_wp * q**2 + 0.75_wp * q**3)
-        else
-          w(l) = k%norm * 0.25_wp * (2.0_wp - q)**3
-        end if
+        s = max(0.0_wp, 2.0_wp - q)
+        w(l) = merge(k%norm * (1.0_wp - 1.5_wp * q**2 + 0.75_wp * q**3), &
+                     k%norm * 0.25_wp * s**3, q < 1.0_wp)
       end do
     case (KERNEL_GAUSSIAN)
+      s2 = k%support**2
       do l = 1, n
-        w(l) = k%norm * (exp(-r2(l) * k%inv_h2) - k%w_cut)
+        w(l) = merge(k%norm * (exp(-min(r2(l), s2) * k%inv_h2) - k%w_cut), 0.0_wp, r2(l) < s2)
       end do
     end select
   end subroutine kernel_w_list

@@ -17,7 +17,7 @@ module fluid_rhs
   private
   public :: rhs_params_t, rhs_density_gradient, rhs_renormalisation, rhs_evaluate, rhs_shift, &
             LAMBDA_MIN, LAMBDA_SURFACE, LAMBDA_NEAR, pair_buffers, &
-            in_range_pairs
+            in_range_pairs, rhs_work_t, rhs_work_reserve
   public :: VISC_NONE, VISC_DELTA, VISC_MONAGHAN, DIFF_NONE, DIFF_MOLTENI, DIFF_ANTUONO
   public :: PGRAD_STANDARD, PGRAD_HIGHER_ORDER, DIV_STANDARD, DIV_RENORMALISED
 
@@ -48,6 +48,15 @@ module fluid_rhs
   !> shifting (Sun et al. 2017: R = 0.2, n = 4)
   real(wp), parameter :: SHIFT_R = 0.2_wp
   integer, parameter :: SHIFT_N = 4
+  !> the partial sums of a row (lane_sums): a vector of doubles on AVX-512
+  integer, parameter :: LANES = 8
+  !> the row buffers of pair_rows.inc (rhs_work_t%rb)
+  integer, parameter :: N_ROWBUF = 10
+  !> rhs_work_t%rec(:, j): what the pair loop reads of a partner j, in one
+  !> place (two cache lines): u (1:3), rho, p, V, 1/rho, the pressure and
+  !> weight of (H1), L (R_L + 1:R_L + 6) and R of (E7)
+  integer, parameter :: NREC = 16, R_RHO = 4, R_P = 5, R_VOL = 6, R_IRHO = 7, R_PF = 8, &
+                        R_WC = 9, R_L = 9, R_RT = 16
 
   !> The physical and numerical constants of the right-hand side.
   type :: rhs_params_t
@@ -73,7 +82,33 @@ module fluid_rhs
     !> blend); 1 gives the corrected form alone (the unit tests of its
     !> exactness use that)
     real(wp) :: ho_weight = HO_WEIGHT_MAX
+    !> run the pair loop with its branches (rows_general) even where a
+    !> vectorised copy exists: the reference the tests compare them with
+    logical :: generic_loop = .false.
   end type rhs_params_t
+
+  !> The constants of the pair loop (pair_rows.inc), from rhs_params_t.
+  type :: pair_coefs_t
+    real(wp) :: s2 = 0          !< support^2
+    real(wp) :: eta2 = 0        !< (E5) Monaghan's 0.01 h^2
+    real(wp) :: visc = 0        !< (E5) alpha h c0 rho0
+    real(wp) :: monaghan = 0    !< (E5) alpha c0 h
+    real(wp) :: diff = 0        !< (E2) delta h c0
+    real(wp) :: inv_wdx = 0     !< (E7) 1/W(dx)
+    integer :: tensile_n = 4    !< (E7) n
+  end type pair_coefs_t
+
+  !> Work arrays of the passes, kept between calls (the solver holds one)
+  !> and grown only when the particles or the longest row outgrow them, so
+  !> that the time loop allocates nothing.  Per particle: V = m/rho, 1/rho,
+  !> the pressure and weight of (H1), R of (E7).  Per row: the in-range
+  !> partners (in_range_pairs), F and W, and the pair terms for i and j.
+  type :: rhs_work_t
+    real(wp), allocatable :: rec(:, :)
+    integer, allocatable :: jl(:)
+    real(wp), allocatable :: rb(:, :)     !< (nr, N_ROWBUF) the row buffers of pair_rows.inc
+    real(wp), allocatable :: acc(:, :)
+  end type rhs_work_t
 
 contains
 
@@ -176,6 +211,32 @@ contains
                xij(1) * xij(2), xij(1) * xij(3), xij(2) * xij(3)]
   end function moment_term
 
+  !> Sizes w for ntot particles and the rows of nl (a row's buffers hold
+  !> its longest row plus a vector of padding, lane_sums), keeping what
+  !> is large enough.
+  subroutine rhs_work_reserve(w, ntot, nl)
+    type(rhs_work_t), intent(inout) :: w
+    integer, intent(in) :: ntot
+    type(neighbour_list_t), intent(in) :: nl
+    integer :: longest, np, nr
+    np = max(ntot, 1)
+    if (allocated(w%rec)) then
+      if (size(w%rec, 2) < np) deallocate(w%rec, w%acc)
+    end if
+    if (.not. allocated(w%rec)) then
+      np = np + np / 8      ! room for the particle count to grow between rebuilds
+      allocate(w%rec(NREC, np), w%acc(4, np))
+    end if
+    longest = 1
+    if (nl%n_rows > 0) &
+      longest = max(1, int(maxval(nl%start(2:nl%n_rows + 1) - nl%start(1:nl%n_rows))))
+    nr = ((longest + LANES) / LANES + 1) * LANES
+    if (allocated(w%jl)) then
+      if (size(w%jl) < nr) deallocate(w%jl, w%rb)
+    end if
+    if (.not. allocated(w%jl)) allocate(w%jl(nr), w%rb(nr, N_ROWBUF))
+  end subroutine rhs_work_reserve
+
   !> Work arrays for the in-range partners of one particle, sized by the
   !> longest row of the list.
   subroutine pair_buffers(nl, jl, xl, r2l, fl)
@@ -188,6 +249,7 @@ contains
       longest = max(1, int(maxval(nl%start(2:nl%n_rows + 1) - nl%start(1:nl%n_rows))))
     allocate(jl(longest + 1), xl(3, longest + 1), r2l(longest + 1), fl(longest + 1))
   end subroutine pair_buffers
+
 
   !> The partners j in row kk (of particle i) that lie within the kernel
   !> support (r^2 < s2), with x_ij and r^2: the list's skin makes most of
@@ -255,164 +317,160 @@ contains
   !> halo exchange).  grad_rho (G) is used only with the Antuono diffusion
   !> and must then hold valid values for halo copies too.
   subroutine rhs_evaluate(prm, n, ntot, x, u, rho, m, p, grad_rho, nl, drho, du, lambda, &
-                          lmat)
+                          lmat, work)
     type(rhs_params_t), intent(in) :: prm
     integer, intent(in) :: n, ntot
     real(wp), intent(in) :: x(3, ntot), u(3, ntot), rho(ntot), m(ntot), p(ntot)
     real(wp), intent(in) :: grad_rho(3, ntot)
     type(neighbour_list_t), intent(in) :: nl
     real(wp), intent(out) :: drho(ntot), du(3, ntot)
-    real(wp), intent(in), optional :: lambda(ntot), lmat(:, :)
-    real(wp) :: xij(3), uji(3), g(3), r2, f, s2, h, eta2
-    real(wp) :: div_i, div_j, dterm, a, coef_visc, diff_coef, xu, vi, vj, iri, irj
-    real(wp) :: drho_i, du_i(3), rhoi, pi_, pp, dp, li(6), lgi(3), lgj(3), wi, wj
-    real(wp), allocatable :: vol(:), inv_rho(:), xl(:, :), r2l(:), fl(:), rt(:), wl(:)
-    real(wp), allocatable :: pf(:), wc(:)
-    real(wp) :: inv_wdx
-    integer, allocatable :: jl(:)
-    integer :: i, j, l, nn, kk
-    logical :: antuono, tensile, corrected, renorm_div, renorm
+    real(wp), intent(in), optional :: lambda(ntot)
+    real(wp), intent(in), optional :: lmat(:, :)
+    type(rhs_work_t), intent(inout), optional, target :: work
+    type(rhs_work_t), target :: own
+    type(rhs_work_t), pointer :: w
+    real(wp) :: s2, h, eta2, coef_visc, coef_mon, diff_coef, inv_wdx
+    type(pair_coefs_t) :: c
+    logical :: antuono, tensile, corrected, renorm_div, renorm, delta_visc, monaghan_visc
     h = prm%kernel%h
     s2 = prm%kernel%support**2
     eta2 = 0.01_wp * h**2
-    coef_visc = 0
-    if (prm%viscosity == VISC_DELTA) coef_visc = prm%alpha * h * prm%c0 * prm%rho0
+    delta_visc = prm%viscosity == VISC_DELTA
+    monaghan_visc = prm%viscosity == VISC_MONAGHAN
+    coef_visc = prm%alpha * h * prm%c0 * prm%rho0
+    coef_mon = prm%alpha * prm%c0 * h
     diff_coef = 0
     if (prm%diffusion /= DIFF_NONE) diff_coef = prm%delta * h * prm%c0
     antuono = prm%diffusion == DIFF_ANTUONO
-    ! per-particle V = m/rho and 1/rho: no division inside the pair loop
-    allocate(vol(ntot), inv_rho(ntot))
-    inv_rho = 1 / rho(1:ntot)
-    vol = m(1:ntot) * inv_rho
-    call pair_buffers(nl, jl, xl, r2l, fl)
-    ! (E7): R_i per particle, 1/W(dx), and W for each row
     tensile = prm%tensile_eps > 0
-    inv_wdx = 0
-    if (tensile) then
-      if (.not. prm%tensile_dx > 0) error stop 'rhs_evaluate: tensile control needs tensile_dx'
-      allocate(rt(ntot), wl(size(r2l)))
-      rt = prm%tensile_eps * max(0.0_wp, -p(1:ntot)) * inv_rho**2
-      inv_wdx = 1 / kernel_w(prm%kernel, prm%tensile_dx)
-    end if
-    ! The corrected operators use L_i g in place of g, L_i from the first
-    ! pass (lmat).  Halo slots of L are zero: the terms they give to halo
-    ! copies are discarded below anyway.
     corrected = prm%pressure_gradient == PGRAD_HIGHER_ORDER
     renorm_div = prm%divergence == DIV_RENORMALISED
     renorm = corrected .or. renorm_div
     if (renorm .and. .not. present(lmat)) &
       error stop 'rhs_evaluate: the renormalised operators need lmat (rhs_renormalisation)'
+    if (corrected .and. .not. present(lambda)) &
+      error stop 'rhs_evaluate: the higher-order gradient needs lambda'
+    if (tensile .and. .not. prm%tensile_dx > 0) &
+      error stop 'rhs_evaluate: tensile control needs tensile_dx'
+    w => own
+    if (present(work)) w => work
+    call rhs_work_reserve(w, ntot, nl)
+    ! per particle: u, rho, p, V = m/rho and 1/rho (no division in the
+    ! pair loop), and what the options need
+    associate(rec => w%rec)
+    rec(1:3, 1:ntot) = u(:, 1:ntot)
+    rec(R_RHO, 1:ntot) = rho(1:ntot)
+    rec(R_P, 1:ntot) = p(1:ntot)
+    rec(R_IRHO, 1:ntot) = 1 / rho(1:ntot)
+    rec(R_VOL, 1:ntot) = m(1:ntot) * rec(R_IRHO, 1:ntot)
+    rec(R_PF:, 1:ntot) = 0
+    ! (E7): R_i per particle and 1/W(dx)
+    inv_wdx = 0
+    if (tensile) then
+      rec(R_RT, 1:ntot) = prm%tensile_eps * max(0.0_wp, -p(1:ntot)) * rec(R_IRHO, 1:ntot)**2
+      inv_wdx = 1 / kernel_w(prm%kernel, prm%tensile_dx)
+    end if
+    if (renorm) rec(R_L + 1:R_L + 6, 1:ntot) = lmat(:, 1:ntot)
     ! (H1): the pressure with p = 0 on the free surface (pf), and the
     ! weight wc of the consistent form: prm%ho_weight inside the fluid
     ! (lambda >= LAMBDA_NEAR), 0 (the conservative E4) on the surface and
     ! near it (lambda <= LAMBDA_BLEND), linear in lambda between
     if (corrected) then
-      if (.not. present(lambda)) error stop 'rhs_evaluate: the higher-order gradient needs lambda'
-      allocate(pf(ntot), wc(ntot))
-      pf = merge(0.0_wp, p(1:ntot), lambda(1:ntot) < LAMBDA_SURFACE)
-      wc = prm%ho_weight * max(0.0_wp, min(1.0_wp, (lambda(1:ntot) - LAMBDA_BLEND) &
-                                               / (LAMBDA_NEAR - LAMBDA_BLEND)))
+      rec(R_PF, 1:ntot) = merge(0.0_wp, p(1:ntot), lambda(1:ntot) < LAMBDA_SURFACE)
+      rec(R_WC, 1:ntot) = prm%ho_weight * max(0.0_wp, min(1.0_wp, (lambda(1:ntot) &
+                                          - LAMBDA_BLEND) / (LAMBDA_NEAR - LAMBDA_BLEND)))
     end if
-    li = 0
-    lgi = 0
-    lgj = 0
-    wi = 0
-    drho = 0
-    du = 0
-    do kk = 1, nl%n_rows
-      i = nl%row(kk)
-      call in_range_pairs(kk, i, x, s2, nl, nn, jl, xl, r2l)
-      call kernel_f_list(prm%kernel, nn, r2l, fl)
-      if (tensile) call kernel_w_list(prm%kernel, nn, r2l, wl)
-      rhoi = rho(i)
-      iri = inv_rho(i)
-      vi = vol(i)
-      pi_ = p(i)
-      if (renorm) li = lmat(:, i)
-      if (corrected) wi = wc(i)
-      drho_i = 0
-      du_i = 0
-      do l = 1, nn
-        j = jl(l)
-        xij = xl(:, l)
-        r2 = r2l(l)
-        f = fl(l)
-        g = f * xij
-        vj = vol(j)
-        irj = inv_rho(j)
-        uji = u(:, j) - u(:, i)
-        if (renorm) then
-          ! L_i g and L_j g (L symmetric: xx, yy, zz, xy, xz, yz)
-          lgi = sym_times(li, g)
-          lgj = sym_times(lmat(:, j), g)
-        end if
-        ! (E1): the pair's velocity divergence u_ji . g, for i and for j
-        ! (grad_j W_ji = -g, u_ij = -u_ji); renormalised u_ji . L_i g and
-        ! u_ji . L_j g, exact for linear velocity fields
-        if (renorm_div) then
-          div_i = uji(1) * lgi(1) + uji(2) * lgi(2) + uji(3) * lgi(3)
-          div_j = uji(1) * lgj(1) + uji(2) * lgj(2) + uji(3) * lgj(3)
-        else
-          div_i = uji(1) * g(1) + uji(2) * g(2) + uji(3) * g(3)
-          div_j = div_i
-        end if
-        ! (E2): (x_j - x_i) . g / r^2 = -F, so the first part of psi . g is
-        ! -2 (rho_j - rho_i) F; psi_ji = psi_ij and grad_j W_ji = -g.
-        dterm = -2 * (rho(j) - rhoi) * f
-        if (antuono) dterm = dterm - sum((grad_rho(:, i) + grad_rho(:, j)) * g)
-        dterm = diff_coef * dterm
-        drho_i = drho_i + (-rhoi * div_i + dterm) * vj
-        drho(j) = drho(j) + (-rho(j) * div_j - dterm) * vi
-        ! (E4) + (E5): du_i = A V_j/rho_i g, du_j = -A V_i/rho_j g, with
-        ! A = -(p_i + p_j) + the viscous term
-        xu = -(uji(1) * xij(1) + uji(2) * xij(2) + uji(3) * xij(3))   ! u_ji . (x_j - x_i)
-        pp = pi_ + p(j)
-        a = 0
-        if (.not. corrected) a = -pp
-        select case (prm%viscosity)
-        case (VISC_DELTA)
-          a = a + coef_visc * xu / r2
-        case (VISC_MONAGHAN)
-          ! Pi_ij = -alpha c0 mu_ij / rhobar for approaching pairs, with
-          ! u_ij . x_ij = u_ji . (x_j - x_i) = xu; du_i = -m_j Pi_ij g.
-          if (xu < 0) a = a + prm%alpha * prm%c0 * h * xu / (r2 + eta2) &
-                          / (0.5_wp * (rhoi + rho(j))) * rhoi * rho(j)
-        end select
-        ! (E7): -m_j (R_i + R_j) f^n g = A V_j/rho_i g with A = -rho_i rho_j (R_i + R_j) f^n
-        if (tensile) a = a - rhoi * rho(j) * (rt(i) + rt(j)) * (wl(l) * inv_wdx)**prm%tensile_n
-        du_i = du_i + (a * vj * iri) * g
-        du(:, j) = du(:, j) - (a * vi * irj) * g
-        if (corrected) then
-          ! (H1): -(1/rho_i) (p_j - p_i) L_i g V_j inside the fluid,
-          ! -(1/rho_i) (p_i + p_j) g V_j (E4) near the surface; for j,
-          ! -(1/rho_j) (p_i - p_j) L_j (-g) V_i or +(1/rho_j) (p_i + p_j) g V_i
-          dp = pf(j) - pf(i)
-          wj = wc(j)
-          du_i = du_i - (vj * iri) * ((wi * dp) * lgi + ((1 - wi) * pp) * g)
-          du(:, j) = du(:, j) + (vi * irj) * (((1 - wj) * pp) * g - (wj * dp) * lgj)
-        end if
-      end do
-      ! the terms from partners earlier in canonical order are already in
-      ! drho(i), du(:, i): the row's own sum comes after them
-      drho(i) = drho(i) + drho_i
-      du(:, i) = du(:, i) + du_i
-    end do
+    end associate
+    w%acc(:, 1:ntot) = 0
+    c = pair_coefs_t(s2, eta2, coef_visc, coef_mon, diff_coef, inv_wdx, prm%tensile_n)
+    ! the common configurations have their own vectorised copies of the loop
+    associate(r => w%rb, nr => size(w%jl))
+    if (prm%generic_loop) then
+      call rows_general(renorm_div, corrected, antuono, tensile, delta_visc, monaghan_visc, &
+                        prm%kernel, c, ntot, x, grad_rho, nl, w%rec, nr, w%jl, r(:, 1), &
+                        r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), &
+                        r(:, 9), r(:, 10), w%acc)
+    else if (renorm_div .and. corrected .and. .not. (antuono .or. tensile) .and. delta_visc) then
+      call rows_renormalised(prm%kernel, c, ntot, x, grad_rho, nl, w%rec, nr, w%jl, r(:, 1), &
+                             r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), &
+                             r(:, 9), r(:, 10), w%acc)
+    else if (.not. (renorm .or. antuono .or. tensile) .and. delta_visc) then
+      call rows_standard(prm%kernel, c, ntot, x, grad_rho, nl, w%rec, nr, w%jl, r(:, 1), &
+                         r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), &
+                         r(:, 9), r(:, 10), w%acc)
+    else
+      call rows_general(renorm_div, corrected, antuono, tensile, delta_visc, monaghan_visc, &
+                        prm%kernel, c, ntot, x, grad_rho, nl, w%rec, nr, w%jl, r(:, 1), &
+                        r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), &
+                        r(:, 9), r(:, 10), w%acc)
+    end if
+    end associate
+    drho(1:n) = w%acc(1, 1:n)
+    du(:, 1:n) = w%acc(2:4, 1:n)
     ! halo slots hold partial sums: their owners compute the real values
     drho(n + 1:ntot) = 0
     du(:, n + 1:ntot) = 0
-
-  contains
-
-    !> L v for a symmetric L stored as (xx, yy, zz, xy, xz, yz)
-    pure function sym_times(ls, v) result(w)
-      real(wp), intent(in) :: ls(6), v(3)
-      real(wp) :: w(3)
-      w = [ls(1) * v(1) + ls(4) * v(2) + ls(5) * v(3), &
-           ls(4) * v(1) + ls(2) * v(2) + ls(6) * v(3), &
-           ls(5) * v(1) + ls(6) * v(2) + ls(3) * v(3)]
-    end function sym_times
-
   end subroutine rhs_evaluate
+
+  !> The rows of the list for rhs_evaluate (the loop: pair_rows.inc), with
+  !> the options as arguments: any combination, branches in the loop.
+  subroutine rows_general(renorm_div, corrected, antuono, tensile, delta_visc, monaghan_visc, &
+                          kernel, c, ntot, x, grad_rho, nl, rec, nr, jl, dx, dy, dz, r2l, &
+                          fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
+    logical, intent(in) :: renorm_div, corrected, antuono, tensile, delta_visc, monaghan_visc
+    include 'pair_rows.inc'
+  end subroutine rows_general
+
+  !> The standard operators (E1, E4) with the delta-SPH viscosity and the
+  !> Molteni diffusion: the options constant, the loop vectorised.
+  subroutine rows_standard(kernel, c, ntot, x, grad_rho, nl, rec, nr, jl, dx, dy, dz, r2l, &
+                           fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
+    logical, parameter :: renorm_div = .false., corrected = .false., antuono = .false., &
+                          tensile = .false., delta_visc = .true., monaghan_visc = .false.
+    include 'pair_rows.inc'
+  end subroutine rows_standard
+
+  !> The renormalised divergence and higher-order gradient (H1) with the
+  !> delta-SPH viscosity and the Molteni diffusion, vectorised.
+  subroutine rows_renormalised(kernel, c, ntot, x, grad_rho, nl, rec, nr, jl, dx, dy, dz, &
+                               r2l, fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
+    logical, parameter :: renorm_div = .true., corrected = .true., antuono = .false., &
+                          tensile = .false., delta_visc = .true., monaghan_visc = .false.
+    include 'pair_rows.inc'
+  end subroutine rows_renormalised
+
+  !> The total of LANES partial sums, added pairwise in a fixed order.
+  pure real(wp) function lane_total(acc) result(total)
+    real(wp), intent(in) :: acc(LANES)
+    total = ((acc(1) + acc(2)) + (acc(3) + acc(4))) + ((acc(5) + acc(6)) + (acc(7) + acc(8)))
+  end function lane_total
+
+  !> in_range_pairs with x_ij in three arrays (the vectorised pair loops)
+  pure subroutine in_range_soa(kk, i, x, s2, nl, nn, jl, dx, dy, dz, r2l)
+    integer, intent(in) :: kk, i
+    real(wp), intent(in) :: x(:, :), s2
+    type(neighbour_list_t), intent(in) :: nl
+    integer, intent(out) :: nn
+    integer, intent(inout) :: jl(:)
+    real(wp), intent(inout) :: dx(:), dy(:), dz(:), r2l(:)
+    real(wp) :: xi(3), d(3), r2
+    integer :: j
+    integer(i8) :: k
+    xi = x(:, i)
+    nn = 0
+    do k = nl%start(kk), nl%start(kk + 1) - 1
+      j = nl%nbr(k)
+      d = xi - x(:, j)
+      r2 = d(1)**2 + d(2)**2 + d(3)**2
+      jl(nn + 1) = j
+      dx(nn + 1) = d(1)
+      dy(nn + 1) = d(2)
+      dz(nn + 1) = d(3)
+      r2l(nn + 1) = r2
+      nn = nn + merge(1, 0, r2 < s2)
+    end do
+  end subroutine in_range_soa
+
 
   !> (E8) Particle shifting of the delta-plus-SPH (Sun et al. 2017): the
   !> displacement of each owned particle

@@ -10,7 +10,7 @@ module solver
   use neighbours, only: cell_sort_permutation
   use list_manager, only: list_manager_t, list_radius, list_check, list_build, list_pair_work
   use eos, only: eos_t, eos_pressure
-  use fluid_rhs, only: rhs_params_t, rhs_renormalisation, rhs_evaluate, rhs_shift, &
+  use fluid_rhs, only: rhs_params_t, rhs_work_t, rhs_renormalisation, rhs_evaluate, rhs_shift, &
                        DIFF_ANTUONO, VISC_NONE, PGRAD_HIGHER_ORDER, DIV_RENORMALISED
   use parallel_env, only: parallel_env_t, par_max
   use decomposition, only: decomposition_t, decomp_redistribute, decomp_halo_build, &
@@ -28,6 +28,7 @@ module solver
     type(list_manager_t) :: lm        !< the neighbour list, its skin and validity test
     type(integrator_t) :: integ       !< the scheme and its work arrays
     type(decomposition_t) :: dc       !< domain, halo and balancing
+    type(rhs_work_t) :: rw            !< work arrays of the right-hand side, kept
     real(wp) :: cfl = 1.5_wp, cfl_force = 0.25_wp, cfl_visc = 0.125_wp
     real(wp) :: nu = 0            !< kinematic viscosity equivalent to the artificial one
     real(wp), allocatable :: drho(:), du(:, :), grad_rho(:, :)
@@ -146,7 +147,7 @@ contains
       pt%p(1:ntot) = eos_pressure(s%eos, pt%rho(1:ntot))
       if (first_pass .and. .not. fresh) then
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
-                          s%lm%nl, s%drho, s%du, s%lambda(1, :), s%lmat)
+                          s%lm%nl, s%drho, s%du, s%lambda(1, :), s%lmat, s%rw)
       else if (first_pass) then
         if (antuono) then
           call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%lm%nl, &
@@ -159,10 +160,10 @@ contains
         ! p = 0 on free-surface partners: their lambda is needed too
         if (corrected) call decomp_refresh_field(s%dc, env, pt%n, s%lambda)
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
-                          s%lm%nl, s%drho, s%du, s%lambda(1, :), s%lmat)
+                          s%lm%nl, s%drho, s%du, s%lambda(1, :), s%lmat, s%rw)
       else
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
-                          s%lm%nl, s%drho, s%du)
+                          s%lm%nl, s%drho, s%du, work=s%rw)
       end if
     end associate
     s%n_evaluations = s%n_evaluations + 1
