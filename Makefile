@@ -72,7 +72,7 @@ $(BUILD):
 
 # Module dependencies: "use foo" in any source makes its object depend on
 # $(BUILD)/foo.o when foo is one of ours (for a .pf file: the objects of
-# both unit-test builds below).
+# both unit-test builds below); "include 'bar.inc'" on the file beside it.
 DEP_SRC := $(SRC) tests/testing.f90 tests/bitwise.f90 $(PF_SRC)
 $(BUILD)/deps.mk: $(DEP_SRC) | $(BUILD)
 	@for f in $(DEP_SRC); do \
@@ -82,6 +82,9 @@ $(BUILD)/deps.mk: $(DEP_SRC) | $(BUILD)
 	    for d in $(SRC_DIRS) tests; do \
 	      if [ -f $$d/$$m.f90 ] && [ $$m != $$b ]; then echo "$$o: $(BUILD)/$$m.o"; fi; \
 	    done; \
+	  done; \
+	  for i in $$(sed -nE "s/^[[:space:]]*include[[:space:]]*'([^']+)'.*/\1/Ip" $$f | sort -u); do \
+	    echo "$$o: $$(dirname $$f)/$$i"; \
 	  done; \
 	done > $@
 -include $(BUILD)/deps.mk
