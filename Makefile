@@ -72,7 +72,8 @@ $(BUILD):
 
 # Module dependencies: "use foo" in any source makes its object depend on
 # $(BUILD)/foo.o when foo is one of ours (for a .pf file: the objects of
-# both unit-test builds below); "include 'bar.inc'" on the file beside it.
+# both unit-test builds below); "include 'bar.inc'" on bar.inc when it lies
+# beside the source (system headers such as fftw3.f03 are not tracked).
 DEP_SRC := $(SRC) tests/testing.f90 tests/bitwise.f90 $(PF_SRC)
 $(BUILD)/deps.mk: $(DEP_SRC) | $(BUILD)
 	@for f in $(DEP_SRC); do \
@@ -84,7 +85,7 @@ $(BUILD)/deps.mk: $(DEP_SRC) | $(BUILD)
 	    done; \
 	  done; \
 	  for i in $$(sed -nE "s/^[[:space:]]*include[[:space:]]*'([^']+)'.*/\1/Ip" $$f | sort -u); do \
-	    echo "$$o: $$(dirname $$f)/$$i"; \
+	    if [ -f $$(dirname $$f)/$$i ]; then echo "$$o: $$(dirname $$f)/$$i"; fi; \
 	  done; \
 	done > $@
 -include $(BUILD)/deps.mk

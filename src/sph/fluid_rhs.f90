@@ -54,9 +54,11 @@ module fluid_rhs
   integer, parameter :: N_ROWBUF = 10
   !> rhs_work_t%rec(:, j): what the pair loop reads of a partner j, in one
   !> place (two cache lines): u (1:3), rho, p, V, 1/rho, the pressure and
-  !> weight of (H1), L (R_L + 1:R_L + 6) and R of (E7)
-  integer, parameter :: NREC = 16, R_RHO = 4, R_P = 5, R_VOL = 6, R_IRHO = 7, R_PF = 8, &
-                        R_WC = 9, R_L = 9, R_RT = 16
+  !> weight of (H1), L (R_L + 1:R_L + 6) and R of (E7); the standard
+  !> operators read only the first REC_SHORT (one cache line)
+  integer, parameter :: REC_SHORT = 8, REC_LONG = 16
+  integer, parameter :: R_RHO = 4, R_P = 5, R_VOL = 6, R_IRHO = 7, R_PF = 8, R_WC = 9, R_L = 9, &
+                        R_RT = 16
 
   !> The physical and numerical constants of the right-hand side.
   type :: rhs_params_t
@@ -211,21 +213,22 @@ contains
                xij(1) * xij(2), xij(1) * xij(3), xij(2) * xij(3)]
   end function moment_term
 
-  !> Sizes w for ntot particles and the rows of nl (a row's buffers hold
+  !> Sizes w for ntot particles, records of nrec values and the rows of nl (a row's buffers hold
   !> its longest row plus a vector of padding, lane_sums), keeping what
   !> is large enough.
-  subroutine rhs_work_reserve(w, ntot, nl)
+  subroutine rhs_work_reserve(w, ntot, nl, nrec)
     type(rhs_work_t), intent(inout) :: w
     integer, intent(in) :: ntot
     type(neighbour_list_t), intent(in) :: nl
+    integer, intent(in) :: nrec      !< rows of the particle record: REC_SHORT or REC_LONG
     integer :: longest, np, nr
     np = max(ntot, 1)
     if (allocated(w%rec)) then
-      if (size(w%rec, 2) < np) deallocate(w%rec, w%acc)
+      if (size(w%rec, 2) < np .or. size(w%rec, 1) /= nrec) deallocate(w%rec, w%acc)
     end if
     if (.not. allocated(w%rec)) then
       np = np + np / 8      ! room for the particle count to grow between rebuilds
-      allocate(w%rec(NREC, np), w%acc(4, np))
+      allocate(w%rec(nrec, np), w%acc(4, np))
     end if
     longest = 1
     if (nl%n_rows > 0) &
@@ -354,7 +357,7 @@ contains
       error stop 'rhs_evaluate: tensile control needs tensile_dx'
     w => own
     if (present(work)) w => work
-    call rhs_work_reserve(w, ntot, nl)
+    call rhs_work_reserve(w, ntot, nl, merge(REC_LONG, REC_SHORT, renorm .or. tensile))
     ! per particle: u, rho, p, V = m/rho and 1/rho (no division in the
     ! pair loop), and what the options need
     associate(rec => w%rec)
@@ -363,7 +366,7 @@ contains
     rec(R_P, 1:ntot) = p(1:ntot)
     rec(R_IRHO, 1:ntot) = 1 / rho(1:ntot)
     rec(R_VOL, 1:ntot) = m(1:ntot) * rec(R_IRHO, 1:ntot)
-    rec(R_PF:, 1:ntot) = 0
+    rec(R_PF:, 1:ntot) = 0     ! (the padding of the short record too)
     ! (E7): R_i per particle and 1/W(dx)
     inv_wdx = 0
     if (tensile) then
@@ -384,25 +387,21 @@ contains
     w%acc(:, 1:ntot) = 0
     c = pair_coefs_t(s2, eta2, coef_visc, coef_mon, diff_coef, inv_wdx, prm%tensile_n)
     ! the common configurations have their own vectorised copies of the loop
-    associate(r => w%rb, nr => size(w%jl))
-    if (prm%generic_loop) then
-      call rows_general(renorm_div, corrected, antuono, tensile, delta_visc, monaghan_visc, &
-                        prm%kernel, c, ntot, x, grad_rho, nl, w%rec, nr, w%jl, r(:, 1), &
-                        r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), &
-                        r(:, 9), r(:, 10), w%acc)
-    else if (renorm_div .and. corrected .and. .not. (antuono .or. tensile) .and. delta_visc) then
-      call rows_renormalised(prm%kernel, c, ntot, x, grad_rho, nl, w%rec, nr, w%jl, r(:, 1), &
-                             r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), &
-                             r(:, 9), r(:, 10), w%acc)
-    else if (.not. (renorm .or. antuono .or. tensile) .and. delta_visc) then
-      call rows_standard(prm%kernel, c, ntot, x, grad_rho, nl, w%rec, nr, w%jl, r(:, 1), &
-                         r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), &
-                         r(:, 9), r(:, 10), w%acc)
+    associate(r => w%rb, nr => size(w%jl), nrec => size(w%rec, 1))
+    if (renorm_div .and. corrected .and. .not. (antuono .or. tensile .or. prm%generic_loop) &
+        .and. delta_visc) then
+      call rows_renormalised(prm%kernel, c, ntot, x, grad_rho, nl, nrec, w%rec, nr, w%jl, &
+                 r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), r(:, 9), &
+                 r(:, 10), w%acc)
+    else if (.not. (renorm .or. antuono .or. tensile .or. prm%generic_loop) .and. delta_visc) then
+      call rows_standard(prm%kernel, c, ntot, x, grad_rho, nl, nrec, w%rec, nr, w%jl, &
+                 r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), r(:, 9), &
+                 r(:, 10), w%acc)
     else
       call rows_general(renorm_div, corrected, antuono, tensile, delta_visc, monaghan_visc, &
-                        prm%kernel, c, ntot, x, grad_rho, nl, w%rec, nr, w%jl, r(:, 1), &
-                        r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), &
-                        r(:, 9), r(:, 10), w%acc)
+                        prm%kernel, c, ntot, x, grad_rho, nl, nrec, w%rec, nr, w%jl, &
+                 r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), r(:, 9), &
+                 r(:, 10), w%acc)
     end if
     end associate
     drho(1:n) = w%acc(1, 1:n)
@@ -415,7 +414,7 @@ contains
   !> The rows of the list for rhs_evaluate (the loop: pair_rows.inc), with
   !> the options as arguments: any combination, branches in the loop.
   subroutine rows_general(renorm_div, corrected, antuono, tensile, delta_visc, monaghan_visc, &
-                          kernel, c, ntot, x, grad_rho, nl, rec, nr, jl, dx, dy, dz, r2l, &
+                          kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, dx, dy, dz, r2l, &
                           fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
     logical, intent(in) :: renorm_div, corrected, antuono, tensile, delta_visc, monaghan_visc
     include 'pair_rows.inc'
@@ -423,7 +422,7 @@ contains
 
   !> The standard operators (E1, E4) with the delta-SPH viscosity and the
   !> Molteni diffusion: the options constant, the loop vectorised.
-  subroutine rows_standard(kernel, c, ntot, x, grad_rho, nl, rec, nr, jl, dx, dy, dz, r2l, &
+  subroutine rows_standard(kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, dx, dy, dz, r2l, &
                            fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
     logical, parameter :: renorm_div = .false., corrected = .false., antuono = .false., &
                           tensile = .false., delta_visc = .true., monaghan_visc = .false.
@@ -432,7 +431,7 @@ contains
 
   !> The renormalised divergence and higher-order gradient (H1) with the
   !> delta-SPH viscosity and the Molteni diffusion, vectorised.
-  subroutine rows_renormalised(kernel, c, ntot, x, grad_rho, nl, rec, nr, jl, dx, dy, dz, &
+  subroutine rows_renormalised(kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, dx, dy, dz, &
                                r2l, fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
     logical, parameter :: renorm_div = .true., corrected = .true., antuono = .false., &
                           tensile = .false., delta_visc = .true., monaghan_visc = .false.
