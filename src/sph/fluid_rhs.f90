@@ -51,7 +51,7 @@ module fluid_rhs
   !> the partial sums of a row (lane_sums): a vector of doubles on AVX-512
   integer, parameter :: LANES = 8
   !> the row buffers of pair_rows.inc (rhs_work_t%rb)
-  integer, parameter :: N_ROWBUF = 10
+  integer, parameter :: N_ROWBUF = 14
   !> rhs_work_t%rec(:, j): what the pair loop reads of a partner j, in one
   !> place (two cache lines): u (1:3), rho, p, V, 1/rho, the pressure and
   !> weight of (H1), L (R_L + 1:R_L + 6) and R of (E7); the standard
@@ -110,6 +110,7 @@ module fluid_rhs
     integer, allocatable :: jl(:)
     real(wp), allocatable :: rb(:, :)     !< (nr, N_ROWBUF) the row buffers of pair_rows.inc
     real(wp), allocatable :: acc(:, :)
+    real(wp), allocatable :: mom(:, :)    !< (9, :) M and G of rhs_renormalisation
   end type rhs_work_t
 
 contains
@@ -141,67 +142,135 @@ contains
   !> surface) L_i = I is used instead.  lmat holds the symmetric L_i as
   !> (xx, yy, zz, xy, xz, yz).  Halo slots of lambda, lmat and grad_rho
   !> are zero: their owners compute them (exchange lambda and G if needed).
-  subroutine rhs_renormalisation(prm, n, ntot, x, rho, m, nl, lambda, lmat, grad_rho)
+  subroutine rhs_renormalisation(prm, n, ntot, x, rho, m, nl, lambda, lmat, grad_rho, work)
     type(rhs_params_t), intent(in) :: prm
     integer, intent(in) :: n, ntot
     real(wp), intent(in) :: x(3, ntot), rho(ntot), m(ntot)
     type(neighbour_list_t), intent(in) :: nl
     real(wp), intent(out) :: lambda(ntot)
     real(wp), intent(out), optional :: lmat(6, ntot), grad_rho(3, ntot)
-    real(wp), allocatable :: mm(:, :)   ! symmetric M: xx, yy, zz, xy, xz, yz
-    real(wp), allocatable :: vol(:)
-    real(wp), allocatable :: xl(:, :), r2l(:), fl(:)
-    integer, allocatable :: jl(:)
-    real(wp) :: xij(3), f, g(3), vi, vj, drho, s2, inv(3, 3), det, xx(6)
-    real(wp) :: gi(3), mi(6)
-    integer :: i, j, l, nn, kk
+    type(rhs_work_t), intent(inout), optional, target :: work
+    type(rhs_work_t), target :: own
+    type(rhs_work_t), pointer :: w
+    real(wp) :: inv(3, 3), det
+    integer :: i
     logical :: with_g
     with_g = present(grad_rho)
-    allocate(mm(6, ntot), vol(ntot))
-    mm = 0
-    vol = m(1:ntot) / rho(1:ntot)
-    if (with_g) grad_rho = 0
-    s2 = prm%kernel%support**2
-    call pair_buffers(nl, jl, xl, r2l, fl)
-    do kk = 1, nl%n_rows
-      i = nl%row(kk)
-      call in_range_pairs(kk, i, x, s2, nl, nn, jl, xl, r2l)
-      call kernel_f_list(prm%kernel, nn, r2l, fl)
-      vi = vol(i)
-      gi = 0
-      mi = 0
-      do l = 1, nn
-        j = jl(l)
-        xij = xl(:, l)
-        f = fl(l)
-        vj = vol(j)
-        if (with_g) then
-          g = f * xij
-          drho = rho(j) - rho(i)
-          ! (rho_j - rho_i) g V_j for i; (rho_i - rho_j)(-g) V_i for j
-          gi = gi + drho * vj * g
-          grad_rho(:, j) = grad_rho(:, j) + drho * vi * g
-        end if
-        xx = moment_term(f, xij)
-        mi = mi + vj * xx
-        mm(:, j) = mm(:, j) + vi * xx
-      end do
-      if (with_g) grad_rho(:, i) = grad_rho(:, i) + gi
-      mm(:, i) = mm(:, i) + mi
-    end do
+    w => own
+    if (present(work)) w => work
+    call rhs_work_reserve(w, ntot, nl, REC_SHORT)
+    associate(rec => w%rec, r => w%rb, nr => size(w%jl), acc => w%mom)
+    ! rec: V and rho per particle; acc: M (1:6) and the sum of G (7:9)
+    rec(R_RHO, 1:ntot) = rho(1:ntot)
+    rec(R_VOL, 1:ntot) = m(1:ntot) / rho(1:ntot)
+    acc(:, 1:ntot) = 0
+    if (with_g) then
+      call moment_rows(.true., prm%kernel, ntot, x, nl, size(rec, 1), rec, nr, w%jl, r(:, 1), &
+                       r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), r(:, 9), &
+                       r(:, 10), r(:, 11), r(:, 12), r(:, 13), r(:, 14), acc)
+    else
+      call moment_rows(.false., prm%kernel, ntot, x, nl, size(rec, 1), rec, nr, w%jl, r(:, 1), &
+                       r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), r(:, 9), &
+                       r(:, 10), r(:, 11), r(:, 12), r(:, 13), r(:, 14), acc)
+    end if
     lambda = 0
     if (present(lmat)) lmat = 0
+    if (with_g) grad_rho = 0
     do i = 1, n
-      lambda(i) = sym_min_eigenvalue(prm%dim, mm(:, i))
+      lambda(i) = sym_min_eigenvalue(prm%dim, acc(1:6, i))
       if (present(lmat)) lmat(1:prm%dim, i) = 1      ! L = I unless M_i is well conditioned
+      if (with_g) grad_rho(:, i) = acc(7:9, i)
       if (lambda(i) < LAMBDA_MIN) cycle
-      call invert_sym(prm%dim, mm(:, i), inv, det)
+      call invert_sym(prm%dim, acc(1:6, i), inv, det)
       if (present(lmat)) lmat(:, i) = [inv(1, 1), inv(2, 2), inv(3, 3), inv(1, 2), inv(1, 3), &
                                        inv(2, 3)]
-      if (with_g) grad_rho(:, i) = matmul(inv, grad_rho(:, i))
+      if (with_g) grad_rho(:, i) = matmul(inv, acc(7:9, i))
     end do
-    if (with_g) grad_rho(:, n + 1:ntot) = 0   ! halo values come from their owners
+    end associate
   end subroutine rhs_renormalisation
+
+  !> The rows of the list for rhs_renormalisation: per pair the term of M
+  !> (moment_term, the same for i and j) and, with_g, of the density
+  !> gradient ((rho_j - rho_i) g V_j for i, (rho_i - rho_j)(-g) V_i for j),
+  !> summed for i in lanes (as pair_rows.inc) and added to j in row order.
+  !> Called with with_g a constant, each call is vectorised.
+  subroutine moment_rows(with_g, kernel, ntot, x, nl, nrec, rec, nr, jl, dx, dy, dz, r2l, fl, &
+                         t1, t2, t3, t4, t5, t6, t7, t8, t9, acc)
+    logical, value :: with_g
+    type(kernel_t), intent(in) :: kernel
+    integer, intent(in) :: ntot, nrec, nr
+    real(wp), intent(in) :: x(3, ntot), rec(nrec, ntot)
+    type(neighbour_list_t), intent(in) :: nl
+    integer, intent(inout) :: jl(nr)
+    real(wp), intent(inout), dimension(nr) :: dx, dy, dz, r2l, fl, t1, t2, t3, t4, t5, t6, t7, &
+                                              t8, t9
+    real(wp), intent(inout) :: acc(9, ntot)
+    real(wp), dimension(LANES, 9) :: si
+    real(wp) :: s2, vi, vj, rhoi, f, q, gs
+    integer :: kk, i, j, l, nn, nb, b, k, c
+    s2 = kernel%support**2
+    do kk = 1, nl%n_rows
+      i = nl%row(kk)
+      call in_range_soa(kk, i, x, s2, nl, nn, jl, dx, dy, dz, r2l)
+      nb = ((nn + LANES - 1) / LANES) * LANES
+      jl(nn + 1:nb) = i
+      dx(nn + 1:nb) = 0
+      dy(nn + 1:nb) = 0
+      dz(nn + 1:nb) = 0
+      r2l(nn + 1:nb) = s2
+      call kernel_f_list(kernel, nb, r2l, fl)
+      vi = rec(R_VOL, i)
+      rhoi = rec(R_RHO, i)
+      si = 0
+      do b = 0, nb - LANES, LANES
+        do k = 1, LANES
+          l = b + k
+          j = jl(l)
+          f = fl(l)
+          vj = rec(R_VOL, j)
+          ! (E3) -F x_ij x_ij^T, as moment_term
+          t1(l) = -f * dx(l)**2
+          t2(l) = -f * dy(l)**2
+          t3(l) = -f * dz(l)**2
+          t4(l) = -f * (dx(l) * dy(l))
+          t5(l) = -f * (dx(l) * dz(l))
+          t6(l) = -f * (dy(l) * dz(l))
+          si(k, 1) = si(k, 1) + vj * t1(l)
+          si(k, 2) = si(k, 2) + vj * t2(l)
+          si(k, 3) = si(k, 3) + vj * t3(l)
+          si(k, 4) = si(k, 4) + vj * t4(l)
+          si(k, 5) = si(k, 5) + vj * t5(l)
+          si(k, 6) = si(k, 6) + vj * t6(l)
+          t1(l) = vi * t1(l)
+          t2(l) = vi * t2(l)
+          t3(l) = vi * t3(l)
+          t4(l) = vi * t4(l)
+          t5(l) = vi * t5(l)
+          t6(l) = vi * t6(l)
+          if (with_g) then
+            ! (E2) (rho_j - rho_i) g V_j for i, (rho_i - rho_j)(-g) V_i for j
+            q = rec(R_RHO, j) - rhoi
+            gs = q * vj * f
+            si(k, 7) = si(k, 7) + gs * dx(l)
+            si(k, 8) = si(k, 8) + gs * dy(l)
+            si(k, 9) = si(k, 9) + gs * dz(l)
+            gs = q * vi * f
+            t7(l) = gs * dx(l)
+            t8(l) = gs * dy(l)
+            t9(l) = gs * dz(l)
+          end if
+        end do
+      end do
+      do l = 1, nn
+        j = jl(l)
+        acc(1:6, j) = acc(1:6, j) + [t1(l), t2(l), t3(l), t4(l), t5(l), t6(l)]
+        if (with_g) acc(7:9, j) = acc(7:9, j) + [t7(l), t8(l), t9(l)]
+      end do
+      do c = 1, merge(9, 6, with_g)
+        acc(c, i) = acc(c, i) + lane_total(si(:, c))
+      end do
+    end do
+  end subroutine moment_rows
 
   !> (E3) The term of one pair in M_i, the same in M_j: -F x_ij x_ij^T,
   !> packed as (xx, yy, zz, xy, xz, yz) (sym3).  The one definition of M:
@@ -224,11 +293,11 @@ contains
     integer :: longest, np, nr
     np = max(ntot, 1)
     if (allocated(w%rec)) then
-      if (size(w%rec, 2) < np .or. size(w%rec, 1) /= nrec) deallocate(w%rec, w%acc)
+      if (size(w%rec, 2) < np .or. size(w%rec, 1) < nrec) deallocate(w%rec, w%acc, w%mom)
     end if
     if (.not. allocated(w%rec)) then
       np = np + np / 8      ! room for the particle count to grow between rebuilds
-      allocate(w%rec(nrec, np), w%acc(4, np))
+      allocate(w%rec(nrec, np), w%acc(4, np), w%mom(9, np))
     end if
     longest = 1
     if (nl%n_rows > 0) &

@@ -151,10 +151,10 @@ contains
       else if (first_pass) then
         if (antuono) then
           call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%lm%nl, &
-                                   s%lambda(1, :), lmat=s%lmat, grad_rho=s%grad_rho)
+                                   s%lambda(1, :), lmat=s%lmat, grad_rho=s%grad_rho, work=s%rw)
         else
           call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%lm%nl, &
-                                   s%lambda(1, :), lmat=s%lmat)
+                                   s%lambda(1, :), lmat=s%lmat, work=s%rw)
         end if
         if (antuono) call decomp_refresh_field(s%dc, env, pt%n, s%grad_rho)
         ! p = 0 on free-surface partners: their lambda is needed too
