@@ -7,7 +7,7 @@ module simulation
   use particles, only: particles_t, particles_permute
   use memory_usage, only: peak_memory_mb
   use neighbours, only: neighbour_counts
-  use config, only: config_t, config_dim, config_echo, config_case
+  use config, only: config_t, config_dim, config_echo, config_case, config_scaled
   use kernels, only: kernel_init, kernel_kind_of
   use eos, only: eos_init, EOS_LINEAR, EOS_TAIT
   use fluid_rhs, only: VISC_NONE, VISC_DELTA, VISC_MONAGHAN, DIFF_NONE, DIFF_MOLTENI, &
@@ -55,8 +55,9 @@ contains
 
   !> Runs the case described by cfg; status is the process exit code
   !> (0 success, 1 a failure during the run).
-  subroutine simulation_run(cfg, env, status)
-    type(config_t), intent(in) :: cfg
+  subroutine simulation_run(cfg_in, env, status)
+    !> the input as given; the run uses it with the resolution scaling applied
+    type(config_t), intent(in) :: cfg_in
     type(parallel_env_t), intent(in) :: env
     integer, intent(out) :: status
     type(solver_t) :: s
@@ -65,8 +66,10 @@ contains
     integer :: step, dim, i_bad, k_out, step0
     logical :: ok, done, snap_now, restarting, have_series
     character(len=:), allocatable :: errmsg
+    type(config_t) :: cfg
 
     status = 0
+    cfg = config_scaled(cfg_in)
     dim = config_dim(cfg)
     t_end = cfg%run%t_end
     tol = 1e-12_wp * max(1.0_wp, t_end)
@@ -104,7 +107,7 @@ contains
       status = 1
       return
     end if
-    if (env%rank == 0) call echo_input(cfg, join_path(run%dir, 'input.nml'), ok, errmsg)
+    if (env%rank == 0) call echo_input(cfg_in, join_path(run%dir, 'input.nml'), ok, errmsg)
     if (.not. par_any_fail(env, ok, errmsg)) then
       status = 1
       return
@@ -475,6 +478,13 @@ contains
     write(output_unit, '(a)') '  kernel ' // trim(cfg%numerics%kernel) // ', integrator ' // &
       trim(cfg%numerics%integrator) // ', viscosity ' // trim(cfg%numerics%viscosity) // &
       ', diffusion ' // trim(cfg%numerics%diffusion)
+    if (cfg%particles%n_ref > 0) write(output_unit, '(a,es10.3,4(a,f8.4),a,f6.3,4(a,f7.3),a)') &
+      '  resolution scaling from n_ref ', cfg%particles%n_ref, ': h/dx ', &
+      cfg%particles%h_over_dx, ', c0 ', cfg%physics%c0, ', alpha ', cfg%numerics%alpha, &
+      ', delta ', cfg%numerics%delta, ' (exponents of (n/n_ref)^(1/dim) = ', &
+      (real(cfg%particles%n, wp) / cfg%particles%n_ref)**(1.0_wp / s%parts%dim), ': ', &
+      cfg%particles%h_exponent, ', ', cfg%physics%c0_exponent, ', ', &
+      cfg%numerics%alpha_exponent, ', ', cfg%numerics%delta_exponent, ')'
     if (len_trim(cfg%particles%from) > 0) write(output_unit, '(a)') &
       '  packed particles from ' // trim(cfg%particles%from)
     if (run%pack_report%iterations > 0) write(output_unit, '(a,i0,a,f7.2,a,i0,a,es9.2,a,i0,a)') &

@@ -31,7 +31,7 @@ module config
   public :: config_t, run_params_t, particles_params_t, physics_params_t, &
             numerics_params_t, output_params_t, parallel_params_t
   public :: config_load, config_defaults, config_write_defaults, config_echo, &
-            config_write_help, config_dim, config_case
+            config_write_help, config_dim, config_case, config_scaled
   public :: NAME_LEN, DIR_LEN_MAX, MAX_PROBES
 
   !> The whole configuration.  The generic groups have their defaults; the
@@ -95,9 +95,37 @@ contains
     call normalise_words(cfg)
     call validate(cfg, path, origins, errmsg)
     if (allocated(errmsg)) return
+    ! the values the run will use must be valid too
+    if (cfg%particles%n_ref > 0) then
+      call validate(config_scaled(cfg), path, origins, errmsg)
+      if (allocated(errmsg)) then
+        errmsg = errmsg // ' (the value after the resolution scaling of &particles n_ref = ' &
+                 // real_str(cfg%particles%n_ref) // ', doc/convergence.md)'
+        return
+      end if
+    end if
     ok = .true.
     errmsg = ''
   end subroutine config_load
+
+  !> The configuration with the resolution scaling applied (doc/convergence.md,
+  !> S1): with particles%n_ref > 0 and s = (n/n_ref)^(1/dim) (= dx_ref/dx),
+  !>   h/dx = h_over_dx s^h_exponent,  c0 = c0 s^c0_exponent,
+  !>   alpha = alpha s^alpha_exponent,  delta = delta s^delta_exponent;
+  !> unchanged with n_ref = 0.  The run uses these values; the echoed input
+  !> keeps the given ones (with the rule), so that it reads back the same.
+  function config_scaled(cfg) result(eff)
+    type(config_t), intent(in) :: cfg
+    type(config_t) :: eff
+    real(wp) :: s
+    eff = cfg
+    if (.not. cfg%particles%n_ref > 0) return
+    s = (real(cfg%particles%n, wp) / cfg%particles%n_ref)**(1.0_wp / config_dim(cfg))
+    eff%particles%h_over_dx = cfg%particles%h_over_dx * s**cfg%particles%h_exponent
+    eff%physics%c0 = cfg%physics%c0 * s**cfg%physics%c0_exponent
+    eff%numerics%alpha = cfg%numerics%alpha * s**cfg%numerics%alpha_exponent
+    eff%numerics%delta = cfg%numerics%delta * s**cfg%numerics%delta_exponent
+  end function config_scaled
 
   !> Writes a complete namelist file with every group and variable at its
   !> default, each with a comment saying what it is and what is allowed.

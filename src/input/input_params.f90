@@ -85,6 +85,11 @@ module input_params
           'lattice clipped; packed: relaxed (doc/packing.md)'), &
     var_t(G_PARTICLES, 'h_over_dx', T_REAL, SCALAR, LO_GE, HI_LE, 1.0_wp, 4.0_wp, CH_NONE, &
           '', 'smoothing length h over particle spacing dx'), &
+    var_t(G_PARTICLES, 'n_ref', T_REAL, SCALAR, LO_GE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
+          'resolution scaling: h_over_dx, c0, alpha, delta hold at this count; 0: none ' // &
+          '(doc/convergence.md)'), &
+    var_t(G_PARTICLES, 'h_exponent', T_REAL, SCALAR, LO_GE, HI_LE, 0.0_wp, 1.0_wp, CH_NONE, &
+          '', 'with n_ref > 0: h/dx = h_over_dx (n/n_ref)^(h_exponent/dim)'), &
     var_t(G_PARTICLES, 'pack_iterations', T_INT, SCALAR, LO_GE, HI_LE, 1.0_wp, 100000.0_wp, &
           CH_NONE, '', 'most iterations of the packing (placement = ''packed'')'), &
     var_t(G_PARTICLES, 'from', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
@@ -94,6 +99,8 @@ module input_params
           'reference density'), &
     var_t(G_PHYSICS, 'c0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
           'speed of sound; at least 3 times the largest initial speed of the case'), &
+    var_t(G_PHYSICS, 'c0_exponent', T_REAL, SCALAR, LO_GE, HI_LE, 0.0_wp, 2.0_wp, CH_NONE, &
+          '', 'with particles.n_ref > 0: c0 = c0 (n/n_ref)^(c0_exponent/dim)'), &
     var_t(G_PHYSICS, 'eos', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_EOS, '', &
           'equation of state: linear p = c0^2 (rho - rho0), ' // &
           'tait p = rho0 c0^2/gamma ((rho/rho0)^gamma - 1)'), &
@@ -115,11 +122,15 @@ module input_params
           // 'monaghan, or none'), &
     var_t(G_NUMERICS, 'alpha', T_REAL, SCALAR, LO_GE, HI_LE, 0.0_wp, 1.0_wp, CH_NONE, '', &
           'artificial viscosity coefficient'), &
+    var_t(G_NUMERICS, 'alpha_exponent', T_REAL, SCALAR, LO_GE, HI_LE, -2.0_wp, 2.0_wp, &
+          CH_NONE, '', 'with particles.n_ref > 0: alpha = alpha (n/n_ref)^(alpha_exponent/dim)'), &
     var_t(G_NUMERICS, 'diffusion', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_DIFFUSION, '', 'density diffusion: molteni (delta-SPH without gradient ' // &
           'correction), antuono (with it), or none'), &
     var_t(G_NUMERICS, 'delta', T_REAL, SCALAR, LO_GE, HI_LE, 0.0_wp, 1.0_wp, CH_NONE, '', &
           'density diffusion coefficient'), &
+    var_t(G_NUMERICS, 'delta_exponent', T_REAL, SCALAR, LO_GE, HI_LE, -2.0_wp, 2.0_wp, &
+          CH_NONE, '', 'with particles.n_ref > 0: delta = delta (n/n_ref)^(delta_exponent/dim)'), &
     var_t(G_NUMERICS, 'skin', T_REAL, SCALAR, LO_GE, HI_LE, 0.0_wp, 2.0_wp, CH_NONE, '', &
           'smallest neighbour-list skin in units of h (widened when a step needs more)'), &
     var_t(G_NUMERICS, 'tensile', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
@@ -178,6 +189,9 @@ module input_params
     integer :: n = 20000                                 !< approximate count
     character(len=NAME_LEN) :: placement = 'rings'
     real(wp) :: h_over_dx = 2.0_wp
+    !> resolution scaling (config_scaled): 0 for none
+    real(wp) :: n_ref = 0
+    real(wp) :: h_exponent = 0
     integer :: pack_iterations = 300                     !< doc/packing.md
     character(len=DIR_LEN_MAX + 1) :: from = ''          !< snapshot of a packed distribution
   contains
@@ -189,6 +203,7 @@ module input_params
   type :: physics_params_t
     real(wp) :: rho0 = 1.0_wp
     real(wp) :: c0 = 10.0_wp
+    real(wp) :: c0_exponent = 0                          !< resolution scaling of c0
     character(len=NAME_LEN) :: eos = 'linear'
     real(wp) :: gamma = 7.0_wp
   contains
@@ -205,8 +220,10 @@ module input_params
     real(wp) :: cfl_visc = 0.125_wp
     character(len=NAME_LEN) :: viscosity = 'delta'
     real(wp) :: alpha = 0.01_wp
+    real(wp) :: alpha_exponent = 0                       !< resolution scaling of alpha
     character(len=NAME_LEN) :: diffusion = 'molteni'
     real(wp) :: delta = 0.1_wp
+    real(wp) :: delta_exponent = 0                       !< resolution scaling of delta
     real(wp) :: skin = 0.3_wp                            !< in units of h
     logical :: tensile = .false.                         !< (E7) tensile instability control
     real(wp) :: tensile_eps = 0.4_wp                     !< measured best with wendland_c2, h = 2 dx
@@ -316,12 +333,14 @@ contains
     integer :: n
     character(len=NAME_LEN) :: placement
     character(len=4 * DIR_LEN_MAX) :: from   ! wider than p%from, as for output.dir
-    real(wp) :: h_over_dx
+    real(wp) :: h_over_dx, n_ref, h_exponent
     integer :: pack_iterations
-    namelist /particles/ n, placement, h_over_dx, pack_iterations, from
+    namelist /particles/ n, placement, h_over_dx, n_ref, h_exponent, pack_iterations, from
     n = p%n
     placement = p%placement
     h_over_dx = p%h_over_dx
+    n_ref = p%n_ref
+    h_exponent = p%h_exponent
     pack_iterations = p%pack_iterations
     from = p%from
     read(text, nml=particles, iostat=ios, iomsg=iomsg)
@@ -329,6 +348,8 @@ contains
     p%n = n
     p%placement = placement
     p%h_over_dx = h_over_dx
+    p%n_ref = n_ref
+    p%h_exponent = h_exponent
     p%pack_iterations = pack_iterations
     p%from = from(1:len(p%from))
   end subroutine read_particles
@@ -338,17 +359,19 @@ contains
     class(physics_params_t), intent(inout) :: p
     integer, intent(out) :: ios
     character(len=*), intent(inout) :: iomsg
-    real(wp) :: rho0, c0, gamma
+    real(wp) :: rho0, c0, c0_exponent, gamma
     character(len=NAME_LEN) :: eos
-    namelist /physics/ rho0, c0, eos, gamma
+    namelist /physics/ rho0, c0, c0_exponent, eos, gamma
     rho0 = p%rho0
     c0 = p%c0
+    c0_exponent = p%c0_exponent
     eos = p%eos
     gamma = p%gamma
     read(text, nml=physics, iostat=ios, iomsg=iomsg)
     if (ios /= 0) return
     p%rho0 = rho0
     p%c0 = c0
+    p%c0_exponent = c0_exponent
     p%eos = eos
     p%gamma = gamma
   end subroutine read_physics
@@ -360,12 +383,14 @@ contains
     character(len=*), intent(inout) :: iomsg
     character(len=NAME_LEN) :: kernel, integrator, viscosity, diffusion
     character(len=NAME_LEN) :: pressure_gradient, divergence, renormalise
-    real(wp) :: cfl, cfl_force, cfl_visc, alpha, delta, skin, tensile_eps
+    real(wp) :: cfl, cfl_force, cfl_visc, alpha, alpha_exponent, delta, delta_exponent, skin
+    real(wp) :: tensile_eps
     logical :: tensile, shifting
     integer :: tensile_n
     namelist /numerics/ kernel, integrator, cfl, cfl_force, cfl_visc, viscosity, alpha, &
-                        diffusion, delta, skin, tensile, tensile_eps, tensile_n, &
-                        pressure_gradient, divergence, shifting, renormalise
+                        alpha_exponent, diffusion, delta, delta_exponent, skin, tensile, &
+                        tensile_eps, tensile_n, pressure_gradient, divergence, shifting, &
+                        renormalise
     kernel = p%kernel
     integrator = p%integrator
     cfl = p%cfl
@@ -373,8 +398,10 @@ contains
     cfl_visc = p%cfl_visc
     viscosity = p%viscosity
     alpha = p%alpha
+    alpha_exponent = p%alpha_exponent
     diffusion = p%diffusion
     delta = p%delta
+    delta_exponent = p%delta_exponent
     skin = p%skin
     tensile = p%tensile
     tensile_eps = p%tensile_eps
@@ -392,8 +419,10 @@ contains
     p%cfl_visc = cfl_visc
     p%viscosity = viscosity
     p%alpha = alpha
+    p%alpha_exponent = alpha_exponent
     p%diffusion = diffusion
     p%delta = delta
+    p%delta_exponent = delta_exponent
     p%skin = skin
     p%tensile = tensile
     p%tensile_eps = tensile_eps
@@ -482,6 +511,10 @@ contains
       text = quoted(p%placement)
     case ('h_over_dx')
       text = real_str(p%h_over_dx)
+    case ('n_ref')
+      text = real_str(p%n_ref)
+    case ('h_exponent')
+      text = real_str(p%h_exponent)
     case ('pack_iterations')
       text = int_str(p%pack_iterations)
     case default
@@ -498,6 +531,8 @@ contains
       text = real_str(p%rho0)
     case ('c0')
       text = real_str(p%c0)
+    case ('c0_exponent')
+      text = real_str(p%c0_exponent)
     case ('eos')
       text = quoted(p%eos)
     case default
@@ -524,10 +559,14 @@ contains
       text = quoted(p%viscosity)
     case ('alpha')
       text = real_str(p%alpha)
+    case ('alpha_exponent')
+      text = real_str(p%alpha_exponent)
     case ('diffusion')
       text = quoted(p%diffusion)
     case ('delta')
       text = real_str(p%delta)
+    case ('delta_exponent')
+      text = real_str(p%delta_exponent)
     case ('skin')
       text = real_str(p%skin)
     case ('tensile')
