@@ -197,8 +197,10 @@ validate: sph
 # Fixed-step benchmarks at 1 and 2 ranks (minutes; needs an idle machine):
 # seconds per step, right-hand sides and particle updates per second, peak
 # memory, imbalance, communication share; table in runs/bench/bench.md.
+# BASELINE=<git revision> builds that revision under build/baseline/ and
+# runs both alternately, printing the speed-up per case.
 bench: sph
-	$(PYTHON) tests/bench/run_bench.py $(BENCH_ARGS)
+	$(PYTHON) tests/bench/run_bench.py $(BENCH_ARGS) $(if $(BASELINE),--baseline $(BASELINE))
 
 debug:
 	$(MAKE) BUILD=build/debug \

@@ -17,7 +17,8 @@ module fluid_rhs
   private
   public :: rhs_params_t, rhs_density_gradient, rhs_renormalisation, rhs_evaluate, rhs_shift, &
             LAMBDA_MIN, LAMBDA_SURFACE, LAMBDA_NEAR, pair_buffers, &
-            in_range_pairs, rhs_work_t, rhs_work_reserve
+            in_range_pairs, rhs_work_t, rhs_work_reserve, in_range_soa, lane_total, &
+            row_capacity, LANES
   public :: VISC_NONE, VISC_DELTA, VISC_MONAGHAN, DIFF_NONE, DIFF_MOLTENI, DIFF_ANTUONO
   public :: PGRAD_STANDARD, PGRAD_HIGHER_ORDER, DIV_STANDARD, DIV_RENORMALISED
 
@@ -290,7 +291,7 @@ contains
     integer, intent(in) :: ntot
     type(neighbour_list_t), intent(in) :: nl
     integer, intent(in) :: nrec      !< rows of the particle record: REC_SHORT or REC_LONG
-    integer :: longest, np, nr
+    integer :: np, nr
     np = max(ntot, 1)
     if (allocated(w%rec)) then
       if (size(w%rec, 2) < np .or. size(w%rec, 1) < nrec) deallocate(w%rec, w%acc, w%mom)
@@ -299,15 +300,23 @@ contains
       np = np + np / 8      ! room for the particle count to grow between rebuilds
       allocate(w%rec(nrec, np), w%acc(4, np), w%mom(9, np))
     end if
-    longest = 1
-    if (nl%n_rows > 0) &
-      longest = max(1, int(maxval(nl%start(2:nl%n_rows + 1) - nl%start(1:nl%n_rows))))
-    nr = ((longest + LANES) / LANES + 1) * LANES
+    nr = row_capacity(nl)
     if (allocated(w%jl)) then
       if (size(w%jl) < nr) deallocate(w%jl, w%rb)
     end if
     if (.not. allocated(w%jl)) allocate(w%jl(nr), w%rb(nr, N_ROWBUF))
   end subroutine rhs_work_reserve
+
+  !> Slots of a row buffer: the longest row of nl padded to whole vectors,
+  !> plus a vector.
+  pure integer function row_capacity(nl) result(nr)
+    type(neighbour_list_t), intent(in) :: nl
+    integer :: longest
+    longest = 1
+    if (nl%n_rows > 0) &
+      longest = max(1, int(maxval(nl%start(2:nl%n_rows + 1) - nl%start(1:nl%n_rows))))
+    nr = ((longest + LANES) / LANES + 1) * LANES
+  end function row_capacity
 
   !> Work arrays for the in-range partners of one particle, sized by the
   !> longest row of the list.

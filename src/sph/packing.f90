@@ -14,9 +14,9 @@
 !> (P3).  Sums run over the solver's canonical half list, so the result is
 !> bitwise the same for any number of ranks.
 module packing
-  use kinds, only: wp, pi
+  use kinds, only: wp, i8, pi
   use kernels, only: kernel_t, kernel_w, kernel_f_list, kernel_w_list
-  use fluid_rhs, only: pair_buffers, in_range_pairs
+  use fluid_rhs, only: row_capacity
   use neighbours, only: neighbour_list_t
   use solver, only: solver_t, solver_rebuild
   use decomposition, only: decomp_refresh
@@ -122,7 +122,9 @@ contains
   !> grad_i of Sum_j W_ij V (the pair part of P2) for the n owned
   !> particles, from the half list in canonical order, and with_sum the
   !> sum itself (the pair part of P1, else gam is 0); halo slots get
-  !> partial sums that are not used.
+  !> partial sums that are not used.  Every listed pair is summed, the ones
+  !> beyond the support with F = W = 0 (kernel_f_list): in this light loop
+  !> sorting them out costs more than their exact zeros.
   subroutine sum_gradient(kernel, n, ntot, x, vol, nl, with_sum, grad, gam)
     type(kernel_t), intent(in) :: kernel
     integer, intent(in) :: n, ntot
@@ -130,42 +132,64 @@ contains
     type(neighbour_list_t), intent(in) :: nl
     logical, intent(in) :: with_sum
     real(wp), intent(out) :: grad(3, ntot), gam(ntot)
-    real(wp), allocatable :: xl(:, :), r2l(:), fl(:), wl(:)
-    integer, allocatable :: jl(:)
-    real(wp) :: gi(3), g(3), s2, si
-    integer :: kk, i, j, l, nn
-    s2 = kernel%support**2
-    call pair_buffers(nl, jl, xl, r2l, fl)
-    allocate(wl(size(r2l)))
-    grad = 0
-    gam = 0
-    do kk = 1, nl%n_rows
-      i = nl%row(kk)
-      call in_range_pairs(kk, i, x, s2, nl, nn, jl, xl, r2l)
-      call kernel_f_list(kernel, nn, r2l, fl)
-      gi = 0
-      do l = 1, nn
-        j = jl(l)
-        g = fl(l) * xl(:, l)
-        gi = gi + g
-        grad(:, j) = grad(:, j) - g
-      end do
-      grad(:, i) = grad(:, i) + gi
-      if (.not. with_sum) cycle
-      call kernel_w_list(kernel, nn, r2l, wl)
-      si = 0
-      do l = 1, nn
-        j = jl(l)
-        si = si + wl(l)
-        gam(j) = gam(j) + wl(l)
-      end do
-      gam(i) = gam(i) + si
-    end do
+    real(wp), allocatable :: rb(:, :)
+    integer :: nr
+    nr = row_capacity(nl)
+    allocate(rb(nr, 5))
+    call gradient_rows(kernel, ntot, x, nl, with_sum, nr, rb(:, 1), rb(:, 2), rb(:, 3), &
+                       rb(:, 4), rb(:, 5), grad, gam)
     grad(:, 1:n) = vol * grad(:, 1:n)
     gam(1:n) = vol * (gam(1:n) + kernel_w(kernel, 0.0_wp))
     grad(:, n + 1:ntot) = 0
     gam(n + 1:ntot) = 0
   end subroutine sum_gradient
+
+  !> The rows of sum_gradient, with explicit-shape buffers (vectorised).
+  subroutine gradient_rows(kernel, ntot, x, nl, with_sum, nr, dx, dy, dz, r2l, fl, grad, gam)
+    type(kernel_t), intent(in) :: kernel
+    integer, intent(in) :: ntot, nr
+    real(wp), intent(in) :: x(3, ntot)
+    type(neighbour_list_t), intent(in) :: nl
+    logical, intent(in) :: with_sum
+    real(wp), intent(inout), dimension(nr) :: dx, dy, dz, r2l, fl
+    real(wp), intent(out) :: grad(3, ntot), gam(ntot)
+    real(wp) :: gi(3), g(3), si, xi(3)
+    integer :: kk, i, j, l, nn
+    integer(i8) :: k0
+    grad = 0
+    gam = 0
+    do kk = 1, nl%n_rows
+      i = nl%row(kk)
+      k0 = nl%start(kk) - 1
+      nn = int(nl%start(kk + 1) - 1 - k0)
+      xi = x(:, i)
+      do l = 1, nn
+        j = nl%nbr(k0 + l)
+        dx(l) = xi(1) - x(1, j)
+        dy(l) = xi(2) - x(2, j)
+        dz(l) = xi(3) - x(3, j)
+        r2l(l) = dx(l)**2 + dy(l)**2 + dz(l)**2
+      end do
+      call kernel_f_list(kernel, nn, r2l, fl)
+      gi = 0
+      do l = 1, nn
+        j = nl%nbr(k0 + l)
+        g = fl(l) * [dx(l), dy(l), dz(l)]
+        gi = gi + g
+        grad(:, j) = grad(:, j) - g
+      end do
+      grad(:, i) = grad(:, i) + gi
+      if (.not. with_sum) cycle
+      call kernel_w_list(kernel, nn, r2l, fl)
+      si = 0
+      do l = 1, nn
+        j = nl%nbr(k0 + l)
+        si = si + fl(l)
+        gam(j) = gam(j) + fl(l)
+      end do
+      gam(i) = gam(i) + si
+    end do
+  end subroutine gradient_rows
 
   !> Relaxes the owned particles of s%parts (P2, P3) in place, on the
   !> solver's decomposition, halo and neighbour list (rebuilt when the

@@ -7,13 +7,23 @@ per particle, peak memory, imbalance and communication share.  It prints a
 table and writes it to runs/bench/bench.md with the machine it ran on.
 Timings are only meaningful on an otherwise idle machine.
 
+With --baseline REV (make bench BASELINE=REV) it also builds that git
+revision under build/baseline/REV (from `git archive`, never in the source
+tree) and runs the two executables alternately on every case, --repeat
+times each, printing the ratio baseline/current of the seconds per step
+(the median of the repeats): the honest comparison on a noisy machine.
+Both get the same explicit settings (CASES: operators, placement, h/dx,
+c0, particle count), not their own input defaults.
+
 usage: tests/bench/run_bench.py [--quick] [--cases circle2d,ellipsoid3d] [--ranks 1,2]
+                                [--baseline REV] [--repeat 2]
 """
 import argparse
 import os
 import pathlib
 import platform
 import re
+import statistics
 import subprocess
 import sys
 import time
@@ -22,28 +32,59 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
            OMPI_MCA_rmaps_base_oversubscribe="1")
 
-# case: (input file, particles, steps, extra overrides)
+# Settings every case states explicitly, so that a baseline revision with
+# other input defaults runs the same problem (rings: no packing before the
+# timed steps; the options exist in every revision since the vectorised
+# pair loop's baseline, 1c431d2).
+COMMON_3D = ["particles.placement=rings", "particles.h_over_dx=1.6", "physics.c0=10",
+             "numerics.alpha=0.01", "numerics.delta=0.1", "numerics.cfl=2.0",
+             "numerics.skin=0.2", "numerics.renormalise=step"]
+STANDARD = ["numerics.divergence=standard", "numerics.pressure_gradient=standard"]
+RENORMALISED = ["numerics.divergence=renormalised", "numerics.pressure_gradient=higher_order"]
+# case: (input file, particles, steps, explicit settings)
 CASES = {
-    "circle2d": ("input/circle2d.nml", 80000, 40, []),
-    "ellipsoid3d": ("input/ellipsoid3d.nml", 1000000, 6, []),
-    "ellipsoid3d_200k": ("input/ellipsoid3d.nml", 200000, 10, []),
+    "circle2d": ("input/circle2d.nml", 80000, 40,
+                 ["particles.placement=rings", "particles.h_over_dx=2.0", "physics.c0=12.5",
+                  "numerics.alpha=0.008", "numerics.delta=0.2"] + RENORMALISED),
+    "ellipsoid3d": ("input/ellipsoid3d.nml", 1000000, 6, COMMON_3D + STANDARD),
+    "ellipsoid3d_200k": ("input/ellipsoid3d.nml", 200000, 10, COMMON_3D + STANDARD),
     # the renormalised operators: a first pass and L_i g per pair side
-    "ellipsoid3d_renormalised": ("input/ellipsoid3d.nml", 1000000, 6,
-                                 ["numerics.divergence=renormalised",
-                                  "numerics.pressure_gradient=higher_order"]),
+    "ellipsoid3d_renormalised": ("input/ellipsoid3d.nml", 1000000, 6, COMMON_3D + RENORMALISED),
 }
 QUICK = {"circle2d": 20000, "ellipsoid3d": 100000, "ellipsoid3d_200k": 50000,
          "ellipsoid3d_renormalised": 100000}
 
 
-def run(case, n, steps, extra, ranks):
+def build_baseline(rev):
+    """The executable of git revision rev, built under build/baseline/<rev>."""
+    full = subprocess.run(["git", "rev-parse", "--short", rev], cwd=ROOT, capture_output=True,
+                          text=True)
+    if full.returncode != 0:
+        sys.exit(f"bench: unknown revision {rev!r}: {full.stderr.strip()}")
+    short = full.stdout.strip()
+    d = ROOT / "build" / "baseline" / short
+    exe = d / "sph"
+    if not exe.exists():
+        d.mkdir(parents=True, exist_ok=True)
+        arch = subprocess.run(f"git archive {short} | tar -x -C {d}", shell=True, cwd=ROOT,
+                              capture_output=True, text=True)
+        if arch.returncode != 0:
+            sys.exit(f"bench: git archive {short} failed: {arch.stderr}")
+        print(f"building {short} in {d.relative_to(ROOT)} ...", flush=True)
+        b = subprocess.run(["make", "-j2", "sph"], cwd=d, capture_output=True, text=True)
+        if b.returncode != 0 or not exe.exists():
+            sys.exit(f"bench: building {short} failed:\n{b.stdout[-3000:]}{b.stderr[-3000:]}")
+    return short, d, exe
+
+
+def run(case, n, steps, extra, ranks, exe=None, cwd=ROOT, tag=""):
     inp = CASES[case][0]
-    out = ROOT / "runs" / "bench" / f"{case}_np{ranks}"
-    cmd = ["mpirun", "-np", str(ranks), str(ROOT / "sph"), inp, f"particles.n={n}",
+    out = ROOT / "runs" / "bench" / f"{case}_np{ranks}{tag}"
+    cmd = ["mpirun", "-np", str(ranks), str(exe or ROOT / "sph"), inp, f"particles.n={n}",
            f"run.max_steps={steps}", "run.t_end=100", "output.snapshots=.false.",
            f"output.dir={out}", "run.progress_interval=1e9"] + extra
     t0 = time.time()
-    p = subprocess.run(cmd, cwd=ROOT, env=ENV, capture_output=True, text=True)
+    p = subprocess.run(cmd, cwd=cwd, env=ENV, capture_output=True, text=True)
     wall = time.time() - t0
     if p.returncode != 0:
         sys.exit(f"bench: {case} at {ranks} rank(s) failed:\n{p.stdout}\n{p.stderr}")
@@ -71,13 +112,25 @@ def main():
     ap.add_argument("--quick", action="store_true", help="smaller cases (a smoke test)")
     ap.add_argument("--cases", default="circle2d,ellipsoid3d,ellipsoid3d_renormalised")
     ap.add_argument("--ranks", default="1,2")
+    ap.add_argument("--baseline", default="", help="git revision to compare with")
+    ap.add_argument("--repeat", type=int, default=2, help="runs of each with --baseline")
     a = ap.parse_args()
     ranks = [int(r) for r in a.ranks.split(",")]
-    lines = [f"# sph benchmark, {time.strftime('%Y-%m-%d %H:%M')}",
-             f"machine: {platform.node()}, {os.cpu_count()} cores, {platform.processor() or platform.machine()}",
-             "", "| case | N | ranks | s/step | RHS/s | particle-updates/s | neighbours (support / list) |"
-             " peak MB/rank | MB total | imbalance | comm % | efficiency |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    baseline = build_baseline(a.baseline) if a.baseline else None
+    head = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=ROOT,
+                          capture_output=True, text=True).stdout.strip()
+    lines = [f"# sph benchmark, {time.strftime('%Y-%m-%d %H:%M')}, {head}",
+             f"machine: {platform.node()}, {os.cpu_count()} cores, "
+             f"{platform.processor() or platform.machine()}", ""]
+    if baseline:
+        lines += [f"baseline {baseline[0]} against {head}: seconds per step, the median of "
+                  f"{a.repeat} alternate runs each, same explicit settings", "",
+                  "| case | N | ranks | baseline s/step | current s/step | speed-up | "
+                  "baseline MB/rank | current MB/rank |", "|---|---|---|---|---|---|---|---|"]
+    else:
+        lines += ["| case | N | ranks | s/step | RHS/s | particle-updates/s | neighbours "
+                  "(support / list) | peak MB/rank | MB total | imbalance | comm % | efficiency |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     print("\n".join(lines), flush=True)
     for case in a.cases.split(","):
         inp, n, steps, extra = CASES[case]
@@ -85,16 +138,27 @@ def main():
             n, steps = QUICK[case], max(3, steps // 4)
         base = None
         for p in ranks:
-            r = run(case, n, steps, extra, p)
-            if base is None:
-                base = r["s_step"] * p
-            eff = base / (r["s_step"] * p)
-            line = (f"| {case} | {r['n']} | {p} | {r['s_step']:.4g} | {r['rhs_s']:.3g} |"
-                    f" {r['updates']:.3g} | {r['pairs']:.1f} / {r['listed']:.1f} | {r['mem']:.0f} |"
-                    f" {r['mem_all']:.0f} | {r['imb']:.3f} | {r['comm']:.1f} | {eff:.2f} |")
+            if baseline:
+                old, new = [], []
+                for _ in range(a.repeat):
+                    old.append(run(case, n, steps, extra, p, baseline[2], baseline[1], "_base"))
+                    new.append(run(case, n, steps, extra, p))
+                so = statistics.median(r["s_step"] for r in old)
+                sn = statistics.median(r["s_step"] for r in new)
+                line = (f"| {case} | {new[0]['n']} | {p} | {so:.4g} | {sn:.4g} | {so / sn:.2f} |"
+                        f" {max(r['mem'] for r in old):.0f} | {max(r['mem'] for r in new):.0f} |")
+            else:
+                r = run(case, n, steps, extra, p)
+                if base is None:
+                    base = r["s_step"] * p
+                eff = base / (r["s_step"] * p)
+                line = (f"| {case} | {r['n']} | {p} | {r['s_step']:.4g} | {r['rhs_s']:.3g} |"
+                        f" {r['updates']:.3g} | {r['pairs']:.1f} / {r['listed']:.1f} |"
+                        f" {r['mem']:.0f} | {r['mem_all']:.0f} | {r['imb']:.3f} |"
+                        f" {r['comm']:.1f} | {eff:.2f} |")
             lines.append(line)
             print(line, flush=True)
-    out = ROOT / "runs" / "bench" / "bench.md"
+    out = ROOT / "runs" / "bench" / ("bench_baseline.md" if baseline else "bench.md")
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text("\n".join(lines) + "\n")
     print(f"\nwritten to {out.relative_to(ROOT)}")
