@@ -1,11 +1,11 @@
-"""sphpost: the shared library of the post-processing scripts in postproc/.
+"""sphpost.core: the shared library of the post-processing tools.
 
 Reads an sph run directory (doc/output.md), knows each case's scales and
 lowest acoustic frequency (doc/theory.md X6), low-pass filters probe signals with
 FFTW (a type-I discrete cosine transform, FFTW_REDFT00, through pyFFTW) and
-computes the paper's errors against the exact solution.  The scripts
-(errors, filter, convergence, plots, validate) are thin command-line layers
-over it; doc/postproc.md documents them and the filter design.
+computes the paper's errors against the exact solution.  The tools
+(errors, filter, convergence, plots, validate) are command-line layers over
+it; doc/postproc.md documents them and the filter design.
 
 Run with /usr/bin/python3 (Debian's numpy, h5py, matplotlib, pyfftw).
 """
