@@ -9,6 +9,7 @@ it; doc/postproc.md documents them and the filter design.
 
 Run with /usr/bin/python3 (Debian's numpy, h5py, matplotlib, pyfftw).
 """
+import argparse
 import csv
 import glob
 import math
@@ -532,6 +533,13 @@ def add_filter_options(parser):
 def filter_from_args(case, args):
     fc, how = cutoff(case, args.cutoff_acoustic, args.cutoff_flow)
     return fc, args.transition, how
+
+
+def filter_options(cutoff_acoustic=None, cutoff_flow=None, transition=DEFAULT_TRANSITION):
+    """The filter's options as add_filter_options parses them, with the same
+    defaults: what the tools' functions take when called from Python."""
+    return argparse.Namespace(cutoff_acoustic=cutoff_acoustic, cutoff_flow=cutoff_flow,
+                              transition=transition)
 
 
 # ---------------------------------------------------------------------------
