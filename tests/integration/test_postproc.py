@@ -1,8 +1,11 @@
 """Post-processing (postproc/): the FFTW low-pass filter on synthetic signals,
 and the scripts errors, filter, convergence, plots and validate on tiny runs
-made here, their numbers checked against the solver's own time series."""
+made here, their numbers checked against the solver's own time series; the
+package sphpost behind them (python3 -m sphpost, the functions validate
+calls, the library's names)."""
 import json
 import math
+import os
 import re
 import subprocess
 import sys
@@ -27,6 +30,18 @@ def script(name, *args, check=True):
     if check:
         assert p.returncode == 0, \
             f"postproc/{name} {args}: exit {p.returncode}\n{p.stdout}{p.stderr}"
+    return p
+
+
+def module(*args, check=True):
+    """Runs `python3 -m sphpost ARGS...` as doc/postproc.md shows it: from the
+    repository root with PYTHONPATH=postproc."""
+    p = subprocess.run([PY, "-m", "sphpost"] + [str(a) for a in args], cwd=ROOT,
+                       env=dict(os.environ, PYTHONPATH="postproc"),
+                       capture_output=True, text=True, timeout=300)
+    if check:
+        assert p.returncode == 0, \
+            f"python3 -m sphpost {args}: exit {p.returncode}\n{p.stdout}{p.stderr}"
     return p
 
 
@@ -385,3 +400,73 @@ def test_scripts_help_and_bad_run_directory(scratch, tiny_run):
     p = script("plots", "ellipsoid", d, check=False)
     assert p.returncode == 2 and "circle2d" in p.stderr, p.stderr
 
+
+# ---------------------------------------------------------------------------
+# The package: python3 -m sphpost, the functions validate calls, the names
+# ---------------------------------------------------------------------------
+
+def test_module_lists_the_tools():
+    p = module("--help")
+    for name in SCRIPTS:
+        assert re.search(rf"^\s+{name}\b", p.stdout, re.M), (name, p.stdout)
+    for args, msg in (([], "required: TOOL"), (["bogus"], "invalid choice: 'bogus'")):
+        p = module(*args, check=False)
+        assert p.returncode == 2 and msg in p.stderr and p.stdout == "", (args, p.stderr)
+    # a tool's own --help, under the module's name
+    p = module("errors", "--help")
+    assert p.stdout.startswith("usage: python3 -m sphpost errors"), p.stdout
+
+
+def test_module_and_script_give_the_same_output(tiny_run):
+    d, _ = tiny_run
+    for args, status in (([d], 0), ([d, "--json"], 0),
+                         ([d, "--count", "3", "--check-snapshots"], 0), ([d / "missing"], 2),
+                         ([d, "--cutoff-flow", "1", "--cutoff-acoustic", "1"], 2)):
+        a = script("errors", *args, check=False)
+        b = module("errors", *args, check=False)
+        assert a.returncode == status, (args, a.stdout, a.stderr)
+        assert (b.returncode, b.stdout, b.stderr) == (a.returncode, a.stdout, a.stderr), args
+
+
+def test_functions_validate_calls_match_the_scripts(tiny_run, tiny_run_5000):
+    # validate calls convergence.study, filter.filter_probes and plots.draw
+    # in its own process instead of running the scripts: the same report,
+    # JSON, CSV and figure, byte for byte
+    import sphpost.convergence
+    import sphpost.filter
+    import sphpost.plots
+    d1, _ = tiny_run
+    d2, _ = tiny_run_5000
+    tmp = d2.parent
+    p = script("convergence", d1, d2, "-o", tmp / "conv_s.png", "--json", tmp / "conv_s.json")
+    lines = []
+    table = sphpost.convergence.study([sp.Run(d1), sp.Run(d2)], sp.filter_options(),
+                                      tmp / "conv_f.png", echo=lines.append)
+    assert "\n".join(lines) + "\n" == p.stdout.replace("conv_s.png", "conv_f.png")
+    # (through JSON text: a NaN order would not compare equal to itself)
+    assert json.dumps(table, indent=1) == (tmp / "conv_s.json").read_text()
+    assert (tmp / "conv_s.png").read_bytes() == (tmp / "conv_f.png").read_bytes()
+    p = script("filter", d1, "-o", tmp / "filt_s.csv")
+    lines = []
+    stats = sphpost.filter.filter_probes(sp.Run(d1), sp.filter_options(), tmp / "filt_f.csv",
+                                         echo=lines.append)
+    assert "\n".join(lines) + "\n" == p.stdout.replace("filt_s.csv", "filt_f.csv")
+    assert (tmp / "filt_s.csv").read_bytes() == (tmp / "filt_f.csv").read_bytes()
+    c = sp.Run(d1).case
+    assert f"spectral peak {stats['p_probe_1']['f_peak'] / c.rate:.4g} A0" in p.stdout
+    script("plots", "pressure", d1, d2, "--labels", "a", "b", "-o", tmp / "pr_s.png",
+           "--dpi", "50")
+    sphpost.plots.draw("pressure", [d1, d2], tmp / "pr_f.png", dpi=50, labels=["a", "b"],
+                       echo=lambda line: None)
+    assert (tmp / "pr_s.png").read_bytes() == (tmp / "pr_f.png").read_bytes()
+
+
+def test_package_keeps_the_library_names():
+    # what `import sphpost` gave when it was postproc/sphpost.py: every
+    # public name of the library, the same objects
+    import sphpost.core
+    names = [n for n in vars(sphpost.core) if not n.startswith("_")]
+    assert {"Run", "PostprocError", "lowpass", "stretching_errors", "DIP_WINDOW",
+            "main_guard", "exact_ellipse"} <= set(names)
+    for n in names:
+        assert getattr(sp, n) is getattr(sphpost.core, n), n

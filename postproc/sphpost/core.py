@@ -1,14 +1,15 @@
-"""sphpost: the shared library of the post-processing scripts in postproc/.
+"""sphpost.core: the shared library of the post-processing tools.
 
 Reads an sph run directory (doc/output.md), knows each case's scales and
 lowest acoustic frequency (doc/theory.md X6), low-pass filters probe signals with
 FFTW (a type-I discrete cosine transform, FFTW_REDFT00, through pyFFTW) and
-computes the paper's errors against the exact solution.  The scripts
-(errors, filter, convergence, plots, validate) are thin command-line layers
-over it; doc/postproc.md documents them and the filter design.
+computes the paper's errors against the exact solution.  The tools
+(errors, filter, convergence, plots, validate) are command-line layers over
+it; doc/postproc.md documents them and the filter design.
 
 Run with /usr/bin/python3 (Debian's numpy, h5py, matplotlib, pyfftw).
 """
+import argparse
 import csv
 import glob
 import math
@@ -532,6 +533,13 @@ def add_filter_options(parser):
 def filter_from_args(case, args):
     fc, how = cutoff(case, args.cutoff_acoustic, args.cutoff_flow)
     return fc, args.transition, how
+
+
+def filter_options(cutoff_acoustic=None, cutoff_flow=None, transition=DEFAULT_TRANSITION):
+    """The filter's options as add_filter_options parses them, with the same
+    defaults: what the tools' functions take when called from Python."""
+    return argparse.Namespace(cutoff_acoustic=cutoff_acoustic, cutoff_flow=cutoff_flow,
+                              transition=transition)
 
 
 # ---------------------------------------------------------------------------
