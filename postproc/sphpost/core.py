@@ -184,6 +184,17 @@ def _pick(group, names, default, notes, what):
     return default
 
 
+def resolution_scale(nml, dim):
+    """s = (n/n_ref)^(1/dim) of the input's resolution scaling (doc/convergence.md
+    S1), 1 without it: the run's c0 is physics.c0 s^c0_exponent, as the solver
+    computes it (input.nml keeps the given values and the rule)."""
+    part = nml.get("particles", {})
+    n_ref = float(part.get("n_ref", 0.0))
+    if not n_ref > 0:
+        return 1.0
+    return (float(part.get("n", n_ref)) / n_ref) ** (1.0 / dim)
+
+
 def case_info(nml, case=None, dim=None):
     """CaseInfo from the parsed input.nml (nml may be {} when absent, then
     the case name must be given, e.g. from a snapshot's attributes)."""
@@ -193,6 +204,8 @@ def case_info(nml, case=None, dim=None):
     phys = nml.get("physics", {})
     rho0 = float(phys.get("rho0", 1.0))
     c0 = float(phys.get("c0", 10.0))
+    c0 *= resolution_scale(nml, 3 if name == "ellipsoid3d" else 2) \
+        ** float(phys.get("c0_exponent", 0.0))
     if not nml:
         notes.append("no input.nml: assumed rho0 = 1, c0 = 10 and unit scales")
     if name == "circle2d":

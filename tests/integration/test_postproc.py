@@ -111,6 +111,19 @@ def test_compressibility_floor_closed_form_at_t0():
         assert abs(sp.slow_centre_pressure(c2, t)[0] - expected / 4) < 1e-12
 
 
+def test_case_info_applies_the_resolution_scaling():
+    # the run's c0 is physics.c0 (n/n_ref)^(c0_exponent/dim) (doc/convergence.md
+    # S1): the filter's cut-off and the I2 floor must use it, not input.nml's c0
+    nml = {"run": {"case": "circle2d"}, "physics": {"c0": 12.5, "c0_exponent": 0.5},
+           "particles": {"n": 20108, "n_ref": 1257}}
+    assert abs(sp.case_info(nml).c0 - 12.5 * (20108 / 1257) ** 0.25) < 1e-12
+    nml["particles"]["n_ref"] = 0
+    assert sp.case_info(nml).c0 == 12.5
+    nml = {"run": {"case": "ellipsoid3d"}, "physics": {"c0": 10, "c0_exponent": 1.0},
+           "particles": {"n": 8000, "n_ref": 1000}}
+    assert abs(sp.case_info(nml).c0 - 20.0) < 1e-12
+
+
 def test_filter_transfer_function_on_the_dct_grid():
     # A cosine of the DCT grid, cos(pi k t/T) (frequency k/(2T)), is one
     # coefficient of the transform: the filter multiplies it by H(k/(2T))
