@@ -83,7 +83,7 @@ module input_params
     var_t(G_PARTICLES, 'placement', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_PLACEMENT, '', 'rings: concentric rings (shells); lattice: square (cubic) ' // &
           'lattice clipped; packed: relaxed (doc/packing.md)'), &
-    var_t(G_PARTICLES, 'h_over_dx', T_REAL, SCALAR, LO_GE, HI_LE, 1.0_wp, 4.0_wp, CH_NONE, &
+    var_t(G_PARTICLES, 'h_over_dx', T_REAL, SCALAR, LO_GE, HI_LE, 1.0_wp, 8.0_wp, CH_NONE, &
           '', 'smoothing length h over particle spacing dx'), &
     var_t(G_PARTICLES, 'n_ref', T_REAL, SCALAR, LO_GE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
           'resolution scaling: h_over_dx, c0, alpha, delta hold at this count; 0: none ' // &
