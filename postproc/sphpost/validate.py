@@ -19,8 +19,10 @@ import datetime
 import math
 import os
 import re
+import shutil
 import subprocess
 import sys
+import tempfile
 import time
 
 from . import convergence, plots
@@ -102,13 +104,18 @@ def run_jobs(jobs, sph, np_ranks, n_parallel, reuse):
                 j.overrides + [f"particles.n={j.n}", f"output.dir={j.run_dir}"]
             print(f"  start {j.case} N = {j.n}: {' '.join(cmd[5:])}", flush=True)
             f = open(j.log, "w")
-            p = subprocess.Popen(cmd, stdout=f, stderr=subprocess.STDOUT, env=env, cwd=ROOT)
-            running.append((j, p, f, time.time()))
+            # a session directory of its own: Open MPI jobs started at the same
+            # moment can collide creating a shared one ("File exists")
+            tmp = tempfile.mkdtemp(prefix="sph-ompi-")
+            p = subprocess.Popen(cmd, stdout=f, stderr=subprocess.STDOUT, cwd=ROOT,
+                                 env=dict(env, OMPI_MCA_orte_tmpdir_base=tmp))
+            running.append((j, p, f, time.time(), tmp))
         time.sleep(0.2)
         for item in list(running):
-            j, p, f, t0 = item
+            j, p, f, t0, tmp = item
             if p.poll() is not None:
                 f.close()
+                shutil.rmtree(tmp, ignore_errors=True)
                 running.remove(item)
                 j.parse(open(j.log).read())
                 j.ok = p.returncode == 0 and j.ok
