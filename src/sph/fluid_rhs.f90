@@ -7,7 +7,10 @@
 !> row, so that every owned particle receives its terms in an order that
 !> does not depend on the decomposition: results are bitwise the same for
 !> any number of ranks.  Terms for halo copies land in slots that are
-!> ignored (their owners compute them).
+!> ignored (their owners compute them).  The pair loop of rhs_evaluate is
+!> pair_rows.inc, written for the vectoriser (doc/ellipsoid3d.md, "Speed"):
+!> a row's terms for i are summed in LANES partial sums, an order fixed by
+!> the row alone, which keeps that property.
 module fluid_rhs
   use kinds, only: wp, i8
   use kernels, only: kernel_t, kernel_f_list, kernel_w, kernel_w_list
