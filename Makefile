@@ -188,7 +188,8 @@ test: sph $(UNIT_EXE)
 	  UNIT_KIND=$(UNIT_KIND) UNIT_LABEL="$(UNIT_LABEL)" bash tests/run_tests.sh
 
 # The validation study behind doc/validation.md: runs circle2d at four
-# resolutions, ellipsoid3d at two and the square patches, then the errors,
+# resolutions (the input's defaults, the standard operators and the
+# convergent recipe), ellipsoid3d at two and the square patches, then the errors,
 # convergence orders and figures of postproc/ (doc/postproc.md).  Runs go to
 # runs/validate/; VALIDATE_ARGS passes options (e.g. --reuse, --quick).
 validate: sph

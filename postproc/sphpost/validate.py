@@ -52,7 +52,11 @@ ELLIPSOID_N = [10000, 40000]
 # resolutions each; adjust N and the overrides when the cases land.
 SQUARE_STUDIES = {"square_rotation": [2500, 10000, 22500],
                   "square_vortical": [2500, 10000, 22500]}
-QUICK = {"circle2d": [1250, 2500], "ellipsoid3d": [2000], "fig4": 1000,
+# The convergent recipe (input/circle2d_convergence.nml, doc/convergence.md):
+# particles.n alone changes; its levels are those of its n_ref
+CONV_N = [1257, 5027, 20107, 80425]
+QUICK = {"circle2d": [1250, 2500], "circle2d_convergence": [314, 1257], "ellipsoid3d": [2000],
+         "fig4": 1000,
          "square_rotation": [1000, 2500], "square_vortical": [1000, 2500]}
 
 
@@ -419,6 +423,15 @@ def write_report(path, doc, circle, ell, squares, args, total_wall, jobs, load):
                 w(f"| order of the filtered pressure error | above 1 | {v:.2f} (least squares) | "
                   f"{'met' if v > 1 else 'NOT met'}"
                   f"{'' if v > 1 else f': the error nears the compressibility floor {pct(floor)} % (I2)'} |")
+        conv = circle.get("convergent")
+        if conv and "conv" in conv:
+            o = conv["conv"]["orders"]
+            w(f"| the same orders with the convergent recipe (input/circle2d_convergence.nml) | "
+              f"linear; above 1 | velocity {o['vel']['lsq']:.2f}, kinetic energy "
+              f"{o['ke']['lsq']:.2f}, filtered pressure {o['p_filt']['lsq']:.2f} (least squares); "
+              f"velocity {pct(conv['res'][-1]['mean']['vel'])} % at N = "
+              f"{conv['runs'][-1].n_particles:,} | "
+              f"{'met' if min(o['vel']['lsq'], o['ke']['lsq']) >= 0.9 and o['p_filt']['lsq'] > 1 else 'closer, not met: doc/convergence.md'} |")
         w("")
         w("Reading the numbers:")
         w("")
@@ -504,6 +517,15 @@ def write_report(path, doc, circle, ell, squares, args, total_wall, jobs, load):
               f"N = {std['runs'][min(2, len(std['runs']) - 1)].n_particles:,}: "
               f"{pct(std['res'][min(2, len(std['runs']) - 1)]['mean']['vel'])} %.")
             w("")
+        conv = circle.get("convergent")
+        if conv:
+            w("### The convergent recipe: input/circle2d_convergence.nml")
+            w("")
+            w("The same case with h/dx, c0 and alpha scaled with the resolution by the input "
+              "file's rule (h/dx ~ dx^-1/2, c0 ~ dx^-1/2, alpha ~ dx; `particles.n` alone "
+              "changes; doc/convergence.md, S1 and the study):")
+            w("")
+            stretching_tables(w, conv, doc, "convergence")
     else:
         w("## circle2d: not run")
         w("")
@@ -513,12 +535,17 @@ def write_report(path, doc, circle, ell, squares, args, total_wall, jobs, load):
         runs, res = ell["runs"], ell["res"]
         c = runs[0].case
         num = runs[0].nml.get("numerics", {})
-        w(f"rates (-1, -1, 2) A0 (prolate), c0 = {c.c0:g} A0 R, h = "
-          f"{runs[0].nml.get('particles', {}).get('h_over_dx')} dx, {num.get('divergence')} "
+        part = runs[0].nml.get("particles", {})
+        # h/dx of each run: the input's rule (doc/convergence.md S1)
+        hs = ", ".join(f"{float(part.get('h_over_dx', 2)) * sp.resolution_scale(r.nml, 3) ** float(part.get('h_exponent', 0)):.2f}"
+                       for r in runs)
+        w(f"rates (-1, -1, 2) A0 (prolate), c0 = {c.c0:g} A0 R, h/dx = {hs} (the input's "
+          f"rule: {part.get('h_over_dx')} at {float(part.get('n_ref', 0)):,.0f} particles, exponent "
+          f"{part.get('h_exponent', 0)}), {num.get('divergence')} "
           f"divergence and {num.get('pressure_gradient')} pressure gradient (the input file's "
           "choice: doc/numerics.md), other settings as circle2d. "
           "The paper ran about 1,000,000 particles; the resolutions here are what one core "
-          "runs in a few minutes. The million-particle run on two ranks (18 minutes) "
+          "runs in a few minutes. The million-particle run on two ranks (under 15 minutes) "
           "and the study at 30,000, 250,000 and 1,000,000 particles are in "
           f"[ellipsoid3d.md](ellipsoid3d.md). Filter cut-off {ell['how']}.")
         w("")
@@ -701,6 +728,13 @@ def command(argv, prog="postproc/validate"):
         QUICK["circle2d"] if args.quick else CIRCLE_N)
     circle = jobs_for("circle2d", circle_n, (2.0, 0.5))
     circle_std = jobs_for("circle2d", circle_n, (2.0, 0.5), STANDARD, "_standard")
+    circle_conv = []
+    if circle_n:
+        # the recipe's cost grows as N^2 (neighbours and steps grow with N)
+        nml = os.path.join(ROOT, "input", "circle2d_convergence.nml")
+        circle_conv = [Job("circle2d", n, nml, ["run.t_end=2.0", "output.dt=0.5"],
+                           os.path.join(args.runs, f"circle2d_convergence_{n}"), 2e-7 * n**2)
+                       for n in (QUICK["circle2d_convergence"] if args.quick else CONV_N)]
     ell = [] if args.skip_3d or "ellipsoid3d" not in args.cases else jobs_for(
         "ellipsoid3d", QUICK["ellipsoid3d"] if args.quick else ELLIPSOID_N, (1.0, 0.5))
     squares = {}
@@ -713,7 +747,7 @@ def command(argv, prog="postproc/validate"):
         n4 = QUICK["fig4"] if args.quick else FIG4_N
         fig4 = [j for k, (_, extra) in enumerate(FIG4)
                 for j in jobs_for("square_rotation", [n4], (), extra, f"_fig4_{k}")]
-    all_jobs = circle + circle_std + ell + [j for js in squares.values() for j in js] + fig4
+    all_jobs = circle + circle_std + circle_conv + ell + [j for js in squares.values() for j in js] + fig4
     print(f"validate: {len(all_jobs)} runs into {args.runs}, {args.jobs} at a time")
     run_jobs(all_jobs, args.sph, args.np, args.jobs, args.reuse)
     load1 = os.getloadavg()[0]
@@ -723,6 +757,9 @@ def command(argv, prog="postproc/validate"):
     c_out = analyse_stretching(circle, args.doc, "circle2d", frac) if circle else None
     if c_out and circle_std:
         c_out["standard"] = analyse_stretching(circle_std, args.doc, "circle2d_standard", frac)
+    if c_out and circle_conv:
+        c_out["convergent"] = analyse_stretching(circle_conv, args.doc, "circle2d_convergence",
+                                                 frac)
     e_out = analyse_stretching(ell, args.doc, "ellipsoid3d", frac) if ell else None
     s_out = {case: analyse_square(js, args.doc, case) for case, js in squares.items()}
     if fig4 and s_out.get("square_rotation") and all(j.ok for j in fig4):
