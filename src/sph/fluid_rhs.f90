@@ -19,8 +19,8 @@ module fluid_rhs
   implicit none
   private
   public :: rhs_params_t, rhs_density_gradient, rhs_renormalisation, rhs_evaluate, rhs_shift, &
-            LAMBDA_MIN, LAMBDA_SURFACE, LAMBDA_NEAR, pair_buffers, &
-            in_range_pairs, rhs_work_t, rhs_work_reserve, in_range_soa, lane_total, &
+            LAMBDA_MIN, LAMBDA_SURFACE, LAMBDA_NEAR, rhs_work_t, rhs_work_reserve, &
+            in_range_soa, lane_total, &
             row_capacity, LANES
   public :: VISC_NONE, VISC_DELTA, VISC_MONAGHAN, DIFF_NONE, DIFF_MOLTENI, DIFF_ANTUONO
   public :: PGRAD_STANDARD, PGRAD_HIGHER_ORDER, DIV_STANDARD, DIV_RENORMALISED
@@ -108,7 +108,7 @@ module fluid_rhs
   !> and grown only when the particles or the longest row outgrow them, so
   !> that the time loop allocates nothing.  Per particle: V = m/rho, 1/rho,
   !> the pressure and weight of (H1), R of (E7).  Per row: the in-range
-  !> partners (in_range_pairs), F and W, and the pair terms for i and j.
+  !> partners (in_range_soa), F and W, and the pair terms for i and j.
   type :: rhs_work_t
     real(wp), allocatable :: rec(:, :)
     integer, allocatable :: jl(:)
@@ -210,18 +210,12 @@ contains
                                               t8, t9
     real(wp), intent(inout) :: acc(9, ntot)
     real(wp), dimension(LANES, 9) :: si
-    real(wp) :: s2, vi, vj, rhoi, f, q, gs
+    real(wp) :: s2, vi, vj, rhoi, f, q, gs, xx(6)
     integer :: kk, i, j, l, nn, nb, b, k, c
     s2 = kernel%support**2
     do kk = 1, nl%n_rows
       i = nl%row(kk)
-      call in_range_soa(kk, i, x, s2, nl, nn, jl, dx, dy, dz, r2l)
-      nb = ((nn + LANES - 1) / LANES) * LANES
-      jl(nn + 1:nb) = i
-      dx(nn + 1:nb) = 0
-      dy(nn + 1:nb) = 0
-      dz(nn + 1:nb) = 0
-      r2l(nn + 1:nb) = s2
+      call in_range_soa(kk, i, x, s2, nl, nn, nb, jl, dx, dy, dz, r2l)
       call kernel_f_list(kernel, nb, r2l, fl)
       vi = rec(R_VOL, i)
       rhoi = rec(R_RHO, i)
@@ -232,13 +226,13 @@ contains
           j = jl(l)
           f = fl(l)
           vj = rec(R_VOL, j)
-          ! (E3) -F x_ij x_ij^T, as moment_term
-          t1(l) = -f * dx(l)**2
-          t2(l) = -f * dy(l)**2
-          t3(l) = -f * dz(l)**2
-          t4(l) = -f * (dx(l) * dy(l))
-          t5(l) = -f * (dx(l) * dz(l))
-          t6(l) = -f * (dy(l) * dz(l))
+          xx = moment_term(f, [dx(l), dy(l), dz(l)])
+          t1(l) = xx(1)
+          t2(l) = xx(2)
+          t3(l) = xx(3)
+          t4(l) = xx(4)
+          t5(l) = xx(5)
+          t6(l) = xx(6)
           si(k, 1) = si(k, 1) + vj * t1(l)
           si(k, 2) = si(k, 2) + vj * t2(l)
           si(k, 3) = si(k, 3) + vj * t3(l)
@@ -320,47 +314,6 @@ contains
       longest = max(1, int(maxval(nl%start(2:nl%n_rows + 1) - nl%start(1:nl%n_rows))))
     nr = ((longest + LANES) / LANES + 1) * LANES
   end function row_capacity
-
-  !> Work arrays for the in-range partners of one particle, sized by the
-  !> longest row of the list.
-  subroutine pair_buffers(nl, jl, xl, r2l, fl)
-    type(neighbour_list_t), intent(in) :: nl
-    integer, allocatable, intent(out) :: jl(:)
-    real(wp), allocatable, intent(out) :: xl(:, :), r2l(:), fl(:)
-    integer :: longest
-    longest = 1
-    if (nl%n_rows > 0) &
-      longest = max(1, int(maxval(nl%start(2:nl%n_rows + 1) - nl%start(1:nl%n_rows))))
-    allocate(jl(longest + 1), xl(3, longest + 1), r2l(longest + 1), fl(longest + 1))
-  end subroutine pair_buffers
-
-
-  !> The partners j in row kk (of particle i) that lie within the kernel
-  !> support (r^2 < s2), with x_ij and r^2: the list's skin makes most of
-  !> the rest fall outside, so filtering first saves the kernel work.
-  pure subroutine in_range_pairs(kk, i, x, s2, nl, nn, jl, xl, r2l)
-    integer, intent(in) :: kk, i
-    real(wp), intent(in) :: x(:, :), s2
-    type(neighbour_list_t), intent(in) :: nl
-    integer, intent(out) :: nn
-    integer, intent(inout) :: jl(:)
-    real(wp), intent(inout) :: xl(:, :), r2l(:)
-    real(wp) :: xij(3), r2
-    integer :: j
-    integer(i8) :: k
-    ! branchless compaction: always store in the next free slot, advance
-    ! only when in range (the test is too random for branch prediction)
-    nn = 0
-    do k = nl%start(kk), nl%start(kk + 1) - 1
-      j = nl%nbr(k)
-      xij = x(:, i) - x(:, j)
-      r2 = xij(1)**2 + xij(2)**2 + xij(3)**2
-      jl(nn + 1) = j
-      xl(:, nn + 1) = xij
-      r2l(nn + 1) = r2
-      nn = nn + merge(1, 0, r2 < s2)
-    end do
-  end subroutine in_range_pairs
 
   !> Time derivatives of density and velocity of the n owned particles.
   !>  (E1) D rho_i/Dt = -rho_i Sum_j u_ji . g V_j + D_i
@@ -525,17 +478,24 @@ contains
     total = ((acc(1) + acc(2)) + (acc(3) + acc(4))) + ((acc(5) + acc(6)) + (acc(7) + acc(8)))
   end function lane_total
 
-  !> in_range_pairs with x_ij in three arrays (the vectorised pair loops)
-  pure subroutine in_range_soa(kk, i, x, s2, nl, nn, jl, dx, dy, dz, r2l)
+  !> The partners j in row kk (of particle i) that lie within the kernel
+  !> support (r^2 < s2), the first nn of jl, with x_ij in dx, dy, dz and r^2:
+  !> the list's skin makes most of the rest fall outside, so filtering first
+  !> saves the pair work.  The row is padded up to nb, a multiple of LANES,
+  !> with partners that give exact zeros (j = i at r^2 = s2, where F = W =
+  !> 0), so that the vectorised loops run on whole vectors.
+  pure subroutine in_range_soa(kk, i, x, s2, nl, nn, nb, jl, dx, dy, dz, r2l)
     integer, intent(in) :: kk, i
     real(wp), intent(in) :: x(:, :), s2
     type(neighbour_list_t), intent(in) :: nl
-    integer, intent(out) :: nn
+    integer, intent(out) :: nn, nb
     integer, intent(inout) :: jl(:)
     real(wp), intent(inout) :: dx(:), dy(:), dz(:), r2l(:)
     real(wp) :: xi(3), d(3), r2
     integer :: j
     integer(i8) :: k
+    ! branchless compaction: always store in the next free slot, advance
+    ! only when in range (the test is too random for branch prediction)
     xi = x(:, i)
     nn = 0
     do k = nl%start(kk), nl%start(kk + 1) - 1
@@ -549,6 +509,12 @@ contains
       r2l(nn + 1) = r2
       nn = nn + merge(1, 0, r2 < s2)
     end do
+    nb = ((nn + LANES - 1) / LANES) * LANES
+    jl(nn + 1:nb) = i
+    dx(nn + 1:nb) = 0
+    dy(nn + 1:nb) = 0
+    dz(nn + 1:nb) = 0
+    r2l(nn + 1:nb) = s2
   end subroutine in_range_soa
 
 
@@ -570,11 +536,11 @@ contains
     type(neighbour_list_t), intent(in) :: nl
     real(wp), intent(out) :: dr(3, ntot), lambda(ntot)
     real(wp), allocatable :: mm(:, :), s0(:, :), s1(:, :), vol(:)
-    real(wp), allocatable :: xl(:, :), r2l(:), fl(:), wl(:)
+    real(wp), allocatable :: xd(:), yd(:), zd(:), r2l(:), fl(:), wl(:)
     integer, allocatable :: jl(:)
     real(wp) :: xij(3), g(3), xx(6), mi(6), s0i(3), s1i(3), w, inv_wdx, s2, vi, vj
     real(wp) :: inv(3, 3), det, nu(3), nn_(3), a
-    integer :: i, j, l, nn, kk
+    integer :: i, j, l, nn, nb, kk, nr
     allocate(mm(6, ntot), s0(3, ntot), s1(3, ntot), vol(ntot))
     mm = 0
     s0 = 0
@@ -582,11 +548,11 @@ contains
     vol = m(1:ntot) / rho(1:ntot)
     s2 = prm%kernel%support**2
     inv_wdx = 1 / kernel_w(prm%kernel, dx)
-    call pair_buffers(nl, jl, xl, r2l, fl)
-    allocate(wl(size(r2l)))
+    nr = row_capacity(nl)
+    allocate(jl(nr), xd(nr), yd(nr), zd(nr), r2l(nr), fl(nr), wl(nr))
     do kk = 1, nl%n_rows
       i = nl%row(kk)
-      call in_range_pairs(kk, i, x, s2, nl, nn, jl, xl, r2l)
+      call in_range_soa(kk, i, x, s2, nl, nn, nb, jl, xd, yd, zd, r2l)
       call kernel_f_list(prm%kernel, nn, r2l, fl)
       call kernel_w_list(prm%kernel, nn, r2l, wl)
       vi = vol(i)
@@ -595,7 +561,7 @@ contains
       s1i = 0
       do l = 1, nn
         j = jl(l)
-        xij = xl(:, l)
+        xij = [xd(l), yd(l), zd(l)]
         g = fl(l) * xij
         vj = vol(j)
         w = 1 + SHIFT_R * (wl(l) * inv_wdx)**SHIFT_N
