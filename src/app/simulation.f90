@@ -7,7 +7,8 @@ module simulation
   use particles, only: particles_t, particles_permute
   use memory_usage, only: peak_memory_mb
   use neighbours, only: neighbour_counts
-  use config, only: config_t, config_dim, config_echo, config_case, config_scaled
+  use config, only: config_t, config_dim, config_echo, config_case, config_scaled, &
+                    config_resolution_scale
   use kernels, only: kernel_init, kernel_kind_of
   use eos, only: eos_init, EOS_LINEAR, EOS_TAIT
   use fluid_rhs, only: VISC_NONE, VISC_DELTA, VISC_MONAGHAN, DIFF_NONE, DIFF_MOLTENI, &
@@ -482,7 +483,7 @@ contains
       '  resolution scaling from n_ref ', cfg%particles%n_ref, ': h/dx ', &
       cfg%particles%h_over_dx, ', c0 ', cfg%physics%c0, ', alpha ', cfg%numerics%alpha, &
       ', delta ', cfg%numerics%delta, ' (exponents of (n/n_ref)^(1/dim) = ', &
-      (real(cfg%particles%n, wp) / cfg%particles%n_ref)**(1.0_wp / s%parts%dim), ': ', &
+      config_resolution_scale(cfg), ': ', &
       cfg%particles%h_exponent, ', ', cfg%physics%c0_exponent, ', ', &
       cfg%numerics%alpha_exponent, ', ', cfg%numerics%delta_exponent, ')'
     if (len_trim(cfg%particles%from) > 0) write(output_unit, '(a)') &

@@ -31,7 +31,7 @@ module config
   public :: config_t, run_params_t, particles_params_t, physics_params_t, &
             numerics_params_t, output_params_t, parallel_params_t
   public :: config_load, config_defaults, config_write_defaults, config_echo, &
-            config_write_help, config_dim, config_case, config_scaled
+            config_write_help, config_dim, config_case, config_scaled, config_resolution_scale
   public :: NAME_LEN, DIR_LEN_MAX, MAX_PROBES
 
   !> The whole configuration.  The generic groups have their defaults; the
@@ -120,12 +120,21 @@ contains
     real(wp) :: s
     eff = cfg
     if (.not. cfg%particles%n_ref > 0) return
-    s = (real(cfg%particles%n, wp) / cfg%particles%n_ref)**(1.0_wp / config_dim(cfg))
+    s = config_resolution_scale(cfg)
     eff%particles%h_over_dx = cfg%particles%h_over_dx * s**cfg%particles%h_exponent
     eff%physics%c0 = cfg%physics%c0 * s**cfg%physics%c0_exponent
     eff%numerics%alpha = cfg%numerics%alpha * s**cfg%numerics%alpha_exponent
     eff%numerics%delta = cfg%numerics%delta * s**cfg%numerics%delta_exponent
   end function config_scaled
+
+  !> s = (n/n_ref)^(1/dim) = dx_ref/dx of the resolution scaling (S1);
+  !> 1 without it (n_ref = 0).
+  real(wp) function config_resolution_scale(cfg) result(s)
+    type(config_t), intent(in) :: cfg
+    s = 1
+    if (cfg%particles%n_ref > 0) &
+      s = (real(cfg%particles%n, wp) / cfg%particles%n_ref)**(1.0_wp / config_dim(cfg))
+  end function config_resolution_scale
 
   !> Writes a complete namelist file with every group and variable at its
   !> default, each with a comment saying what it is and what is allowed.
