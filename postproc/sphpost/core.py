@@ -195,6 +195,13 @@ def resolution_scale(nml, dim):
     return (float(part.get("n", n_ref)) / n_ref) ** (1.0 / dim)
 
 
+def scaled_input(nml, dim, group, name, exponent, default):
+    """The value the run used for &group name: the input's value times
+    resolution_scale^exponent (the exponent read from the same group)."""
+    g = nml.get(group, {})
+    return float(g.get(name, default)) * resolution_scale(nml, dim) ** float(g.get(exponent, 0.0))
+
+
 def case_info(nml, case=None, dim=None):
     """CaseInfo from the parsed input.nml (nml may be {} when absent, then
     the case name must be given, e.g. from a snapshot's attributes)."""
@@ -203,9 +210,8 @@ def case_info(nml, case=None, dim=None):
     name = (case or run.get("case") or "").lower()
     phys = nml.get("physics", {})
     rho0 = float(phys.get("rho0", 1.0))
-    c0 = float(phys.get("c0", 10.0))
-    c0 *= resolution_scale(nml, 3 if name == "ellipsoid3d" else 2) \
-        ** float(phys.get("c0_exponent", 0.0))
+    c0 = scaled_input(nml, 3 if name == "ellipsoid3d" else 2, "physics", "c0", "c0_exponent",
+                      10.0)
     if not nml:
         notes.append("no input.nml: assumed rho0 = 1, c0 = 10 and unit scales")
     if name == "circle2d":

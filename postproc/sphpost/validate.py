@@ -426,12 +426,13 @@ def write_report(path, doc, circle, ell, squares, args, total_wall, jobs, load):
         conv = circle.get("convergent")
         if conv and "conv" in conv:
             o = conv["conv"]["orders"]
+            met = min(o["vel"]["lsq"], o["ke"]["lsq"]) >= 0.9 and o["p_filt"]["lsq"] > 1
+            verdict = "met" if met else "closer, not met: doc/convergence.md"
             w(f"| the same orders with the convergent recipe (input/circle2d_convergence.nml) | "
               f"linear; above 1 | velocity {o['vel']['lsq']:.2f}, kinetic energy "
               f"{o['ke']['lsq']:.2f}, filtered pressure {o['p_filt']['lsq']:.2f} (least squares); "
               f"velocity {pct(conv['res'][-1]['mean']['vel'])} % at N = "
-              f"{conv['runs'][-1].n_particles:,} | "
-              f"{'met' if min(o['vel']['lsq'], o['ke']['lsq']) >= 0.9 and o['p_filt']['lsq'] > 1 else 'closer, not met: doc/convergence.md'} |")
+              f"{conv['runs'][-1].n_particles:,} | {verdict} |")
         w("")
         w("Reading the numbers:")
         w("")
@@ -537,7 +538,7 @@ def write_report(path, doc, circle, ell, squares, args, total_wall, jobs, load):
         num = runs[0].nml.get("numerics", {})
         part = runs[0].nml.get("particles", {})
         # h/dx of each run: the input's rule (doc/convergence.md S1)
-        hs = ", ".join(f"{float(part.get('h_over_dx', 2)) * sp.resolution_scale(r.nml, 3) ** float(part.get('h_exponent', 0)):.2f}"
+        hs = ", ".join(f"{sp.scaled_input(r.nml, 3, 'particles', 'h_over_dx', 'h_exponent', 2):.2f}"
                        for r in runs)
         w(f"rates (-1, -1, 2) A0 (prolate), c0 = {c.c0:g} A0 R, h/dx = {hs} (the input's "
           f"rule: {part.get('h_over_dx')} at {float(part.get('n_ref', 0)):,.0f} particles, exponent "
