@@ -86,11 +86,13 @@ contains
     real(wp), intent(in) :: x(3, ntot), radius, origin(3)
     integer(i8), intent(in) :: id(ntot)
     type(cell_set_t) :: cs
-    integer, allocatable :: tmp(:)
+    integer, allocatable :: tmp(:), keep(:)
+    real(wp), allocatable :: xc(:), yc(:), zc(:)
+    logical, allocatable :: owned(:)
     integer(i8) :: np, cap, row_max
-    integer :: a, b, s, c, ca, k, kk
+    integer :: a, s, c, ca, k, kk, nr, r, lo(14), hi(14)
     logical :: a_owned
-    real(wp) :: r2max, d(3), xa(3)
+    real(wp) :: r2max, xa, ya, za
     nl%radius = radius
     nl%n = n
     nl%n_rows = ntot
@@ -99,6 +101,16 @@ contains
     ! within each cell, by ascending global id
     do c = 1, cs%n_cells
       call sort_index(id, cs%order(cs%cstart(c):cs%cstart(c + 1) - 1))
+    end do
+    ! positions and ownership in canonical order: a cell's candidates are
+    ! then contiguous and their distances a vector loop
+    allocate(xc(ntot), yc(ntot), zc(ntot), owned(ntot), keep(ntot + 1))
+    do k = 1, ntot
+      a = cs%order(k)
+      xc(k) = x(1, a)
+      yc(k) = x(2, a)
+      zc(k) = x(3, a)
+      owned(k) = a <= n
     end do
     if (allocated(nl%start)) deallocate(nl%start, nl%row)
     allocate(nl%start(ntot + 1), nl%row(ntot))
@@ -112,36 +124,46 @@ contains
       a = cs%order(kk)
       nl%row(kk) = a
       nl%start(kk) = np + 1
-      a_owned = a <= n
-      xa = x(:, a)
+      a_owned = owned(kk)
+      xa = xc(kk)
+      ya = yc(kk)
+      za = zc(kk)
       ca = cs%cell(a)
-      ! room for every candidate of this row (the branchless compaction
-      ! writes one slot past the last pair)
-      row_max = 1 + cs%cstart(ca + 1) - cs%cstart(ca)
+      ! the candidates: the rest of its own cell (after it in id order), then
+      ! the cells after it, as canonical ranges; cells numbered in a row
+      ! (neighbours along x) merge into one range
+      nr = 1
+      lo(1) = kk + 1
+      hi(1) = cs%cstart(ca + 1) - 1
       do s = 1, cs%n_after
         c = cs%after(s, ca)
-        row_max = row_max + cs%cstart(c + 1) - cs%cstart(c)
+        if (c > cs%n_cells) cycle
+        if (cs%cstart(c) == hi(nr) + 1) then
+          hi(nr) = cs%cstart(c + 1) - 1
+        else
+          nr = nr + 1
+          lo(nr) = cs%cstart(c)
+          hi(nr) = cs%cstart(c + 1) - 1
+        end if
       end do
+      ! room for every candidate of this row (the branchless compaction
+      ! writes one slot past the last pair)
+      row_max = 1 + sum(max(hi(1:nr) - lo(1:nr) + 1, 0))
       if (np + row_max > size(nl%nbr, kind=i8)) then
         allocate(tmp(max(size(nl%nbr, kind=i8) * 3 / 2, np + row_max)))
         tmp(1:np) = nl%nbr(1:np)
         call move_alloc(tmp, nl%nbr)
       end if
-      ! the rest of its own cell (after it in id order), then the cells
-      ! after it; branchless, as the in-range test is too random to predict
-      do k = kk + 1, cs%cstart(ca + 1) - 1
-        b = cs%order(k)
-        d = xa - x(:, b)
-        nl%nbr(np + 1) = b
-        np = np + merge(1, 0, d(1)**2 + d(2)**2 + d(3)**2 < r2max .and. (a_owned .or. b <= n))
-      end do
-      do s = 1, cs%n_after
-        c = cs%after(s, ca)
-        do k = cs%cstart(c), cs%cstart(c + 1) - 1
-          b = cs%order(k)
-          d = xa - x(:, b)
-          nl%nbr(np + 1) = b
-          np = np + merge(1, 0, d(1)**2 + d(2)**2 + d(3)**2 < r2max .and. (a_owned .or. b <= n))
+      do r = 1, nr
+        ! in range, and not a pair of two halo copies: a vector loop
+        do k = lo(r), hi(r)
+          keep(k) = merge(1, 0, (xa - xc(k))**2 + (ya - yc(k))**2 + (za - zc(k))**2 < r2max &
+                                .and. (a_owned .or. owned(k)))
+        end do
+        ! branchless compaction, as the test is too random to predict
+        do k = lo(r), hi(r)
+          nl%nbr(np + 1) = cs%order(k)
+          np = np + keep(k)
         end do
       end do
     end do
