@@ -12,9 +12,12 @@
 !> which is most of the motion of the prototype problems.  Every quantity
 !> is computed from sums that do not depend on the number of ranks
 !> (par_sum_exact), so every rank count rebuilds at the same steps and
-!> results stay bitwise independent of the decomposition.
+!> results stay bitwise independent of the decomposition.  The fit may use
+!> a sample chosen by global id (every stride-th): any F, b gives a valid
+!> bound as long as e_max is the largest residual of all particles, which
+!> it always is; the sample only makes F and b cheaper.
 module affine_motion
-  use kinds, only: wp
+  use kinds, only: wp, i8
   use parallel_env, only: parallel_env_t, par_sum_exact, par_max
   use sym3, only: invert_spd
   implicit none
@@ -25,25 +28,37 @@ contains
 
   !> Least-squares fit y_i ~ A x_i + b over the particles of every rank
   !> (first dim components; the others of A and b are 0), and the largest
-  !> residual e_max = max_i |y_i - A x_i - b| (global).  A degenerate cloud
-  !> (fewer than dim + 1 independent points) gets A = 0, b = mean of y:
-  !> still a valid decomposition, only a less useful one.
-  subroutine affine_fit(env, dim, n, x, y, a, b, e_max)
+  !> residual e_max = max_i |y_i - A x_i - b| (global, over all particles).
+  !> With id and stride, the fit uses only the particles whose global id is
+  !> a multiple of stride.  A degenerate cloud (fewer than dim + 1
+  !> independent points) gets A = 0, b = mean of y: still a valid
+  !> decomposition, only a less useful one.
+  subroutine affine_fit(env, dim, n, x, y, a, b, e_max, id, stride)
     type(parallel_env_t), intent(in) :: env
     integer, intent(in) :: dim, n
     real(wp), intent(in) :: x(:, :), y(:, :)
     real(wp), intent(out) :: a(3, 3), b(3), e_max
+    integer(i8), intent(in), optional :: id(:)
+    integer(i8), intent(in), optional :: stride
     real(wp), allocatable :: t(:, :)
+    integer, allocatable :: pick(:)
     real(wp) :: xm(3), ym(3), cxx(3, 3), cyx(3, 3), s(15), ntot, m(3, 3)
     integer, parameter :: P(6) = [1, 1, 1, 2, 2, 3], Q(6) = [1, 2, 3, 2, 3, 3]
-    integer :: i, k, l
+    integer :: i, ii, k, l, ns
+    if (present(id) .and. present(stride)) then
+      pick = pack([(i, i = 1, n)], mod(id(1:n), max(stride, 1_i8)) == 0)
+    else
+      pick = [(i, i = 1, n)]
+    end if
+    ns = size(pick)
     ! the means, then the centred moments (centring first avoids the
     ! cancellation in Sum x x^T - N xm xm^T for a cloud far from the origin)
-    allocate(t(15, n))
-    do i = 1, n
-      t(1:3, i) = x(:, i)
-      t(4:6, i) = y(:, i)
-      t(7, i) = 1
+    allocate(t(15, ns))
+    do ii = 1, ns
+      i = pick(ii)
+      t(1:3, ii) = x(:, i)
+      t(4:6, ii) = y(:, i)
+      t(7, ii) = 1
     end do
     s(1:7) = par_sum_exact(env, t(1:7, :))
     ntot = s(7)
@@ -53,13 +68,14 @@ contains
       xm = s(1:3) / ntot
       ym = s(4:6) / ntot
     end if
-    do i = 1, n
+    do ii = 1, ns
+      i = pick(ii)
       do k = 1, 6
-        t(k, i) = (x(P(k), i) - xm(P(k))) * (x(Q(k), i) - xm(Q(k)))
+        t(k, ii) = (x(P(k), i) - xm(P(k))) * (x(Q(k), i) - xm(Q(k)))
       end do
       do l = 1, 3
         do k = 1, 3
-          t(6 + k + 3 * (l - 1), i) = (y(k, i) - ym(k)) * (x(l, i) - xm(l))
+          t(6 + k + 3 * (l - 1), ii) = (y(k, i) - ym(k)) * (x(l, i) - xm(l))
         end do
       end do
     end do

@@ -6,10 +6,14 @@ module list_manager
   use neighbours, only: neighbour_list_t, neighbour_build
   use affine_motion, only: affine_fit
   use sym3, only: sigma_min
-  use parallel_env, only: parallel_env_t, par_max, par_min
+  use parallel_env, only: parallel_env_t, par_max, par_min, par_sum
   implicit none
   private
   public :: list_manager_t, list_radius, list_check, list_build, list_pair_work
+
+  !> particles in the affine fits of the validity test: enough for F and V
+  !> to a small fraction of the residual, at a cost independent of N
+  integer(i8), parameter :: FIT_SAMPLE = 16384
 
   type :: list_manager_t
     type(neighbour_list_t) :: nl
@@ -45,15 +49,19 @@ contains
   !> steps.  A rebuild is also due when lm%force_rebuild is set (after each
   !> snapshot, so that a run restarted from it goes through the same list
   !> history).  When due, the skin of the next build is set here.
-  subroutine list_check(lm, env, dim, n, x, u, du, support, cfl_h, c0, rebuild)
+  subroutine list_check(lm, env, dim, n, x, u, du, id, support, cfl_h, c0, rebuild)
     type(list_manager_t), intent(inout) :: lm
     type(parallel_env_t), intent(in) :: env
     integer, intent(in) :: dim, n
     real(wp), intent(in) :: x(:, :), u(:, :), du(:, :), support, cfl_h, c0
+    integer(i8), intent(in) :: id(:)
     logical, intent(out) :: rebuild
     real(wp) :: f(3, 3), v(3, 3), b(3), e_max, w_max, umax, amax, tau, growth, drift, s0
-    call affine_fit(env, dim, n, lm%nl%x_ref, x, f, b, e_max)
-    call affine_fit(env, dim, n, x, u, v, b, w_max)
+    integer(i8) :: stride
+    ! F and V from about FIT_SAMPLE particles picked by id (affine_motion)
+    stride = max(1_i8, nint(par_sum(env, real(n, wp)), i8) / FIT_SAMPLE)
+    call affine_fit(env, dim, n, lm%nl%x_ref, x, f, b, e_max, id, stride)
+    call affine_fit(env, dim, n, x, u, v, b, w_max, id, stride)
     umax = 0
     amax = 0
     if (n > 0) then

@@ -219,7 +219,7 @@ contains
     integer :: n, stage
     logical :: rebuild
     call list_check(s%lm, env, s%parts%dim, s%parts%n, s%parts%x, s%parts%u, s%du, &
-                    s%rhs%kernel%support, s%cfl * s%rhs%kernel%h, s%rhs%c0, rebuild)
+                    s%parts%id, s%rhs%kernel%support, s%cfl * s%rhs%kernel%h, s%rhs%c0, rebuild)
     if (rebuild) call solver_rebuild(s, env)
     n = s%parts%n      ! migration may have changed it
 
