@@ -15,12 +15,13 @@ module simulation
                        DIFF_ANTUONO, PGRAD_STANDARD, PGRAD_HIGHER_ORDER, DIV_STANDARD, &
                        DIV_RENORMALISED
   use solver, only: solver_t, solver_init, solver_step, solver_evaluate, solver_time_step, &
+                    solver_flow_fields, &
                     solver_sync_halo
   use decomposition, only: BALANCE_PARTICLES, BALANCE_PAIRS
   use integrators, only: SCHEME_RK4, SCHEME_PC2
   use diagnostics, only: kinetic_energy, total_mass, total_momentum, probe_pressure, &
                          find_bad_particle
-  use case_base, only: case_t, case_fields_t
+  use case_base, only: case_t, case_fields_t, case_flow_t
   use parallel_env, only: parallel_env_t, par_sum, par_any, par_max, wall_time
   use fileutil, only: make_directory, join_path, rename_file, temp_path, file_exists
   use snapshot_io, only: snapshot_field_t, snapshot_write, snapshot_filename, &
@@ -217,7 +218,7 @@ contains
     s%eos = eos_init(merge(EOS_TAIT, EOS_LINEAR, cfg%physics%eos == 'tait'), &
                      cfg%physics%c0, cfg%physics%rho0, cfg%physics%gamma)
     call config_case(cfg, run%problem)
-    call run%problem%setup(cfg%particles, cfg%physics, cfg%numerics, s%eos, s%parts, dx)
+    call run%problem%setup(cfg%particles, cfg%physics, s%eos, s%parts, dx)
     call keep_share(env, s%parts)
     if (len_trim(cfg%particles%from) > 0) then
       call read_packed(cfg, env, run%problem, s, dx, ok)
@@ -273,7 +274,7 @@ contains
       run%pack%dx = dx
       run%pack%max_iterations = cfg%particles%pack_iterations
       call pack_ball(s, env, run%pack, run%pack_report)
-      call run%problem%initial_state(s%eos, dx, s%parts)
+      call run%problem%initial_state(s%eos, s%parts)
       ! the run starts afresh on the packed particles
       s%lm%n_rebuilds = 0
       s%dc%n_balances = 0
@@ -320,7 +321,7 @@ contains
     dx = vol**(1 / real(dim, wp))
     s%parts%m(1:s%parts%n) = vol
     s%parts%rho(1:s%parts%n) = 1
-    call problem%initial_state(s%eos, dx, s%parts)
+    call problem%initial_state(s%eos, s%parts)
   end subroutine read_packed
 
   !> Every rank has set up the whole case: each keeps a contiguous share of
@@ -393,12 +394,14 @@ contains
     integer, intent(in) :: step
     logical, intent(out) :: ok
     type(case_fields_t) :: f
+    type(case_flow_t) :: flow
     type(snapshot_field_t), allocatable :: extra(:)
     character(len=:), allocatable :: errmsg
     integer :: k, nv, ns
     ok = .true.
     if (cfg%output%snapshots) then
-      call run%problem%fields(t, s%parts, f)
+      call solver_flow_fields(s, flow%lambda, flow%omega)
+      call run%problem%fields(t, s%parts, flow, f)
       nv = size(f%vector_names)
       ns = size(f%scalar_names)
       allocate(extra(nv + ns))

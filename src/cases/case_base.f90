@@ -7,14 +7,14 @@
 module case_base
   use kinds, only: wp
   use input_var, only: var_t
-  use input_params, only: particles_params_t, physics_params_t, numerics_params_t
+  use input_params, only: particles_params_t, physics_params_t
   use eos, only: eos_t
   use kernels, only: kernel_t
   use particles, only: particles_t
   use parallel_env, only: parallel_env_t
   implicit none
   private
-  public :: case_t, case_fields_t, case_slot_t
+  public :: case_t, case_fields_t, case_flow_t, case_slot_t
 
   !> Extra per-particle snapshot fields and root attributes of a case.
   type :: case_fields_t
@@ -24,6 +24,13 @@ module case_base
     character(len=32), allocatable :: attr_names(:)
     real(wp), allocatable :: attr_values(:)
   end type case_fields_t
+
+  !> Fields of the flow the solver computes for the snapshots on its own
+  !> neighbour list (solver_flow_fields), for the owned particles.
+  type :: case_flow_t
+    real(wp), allocatable :: lambda(:)   !< (n) the free-surface indicator (E9)
+    real(wp), allocatable :: omega(:)    !< (n) the vorticity in 2D; empty in 3D
+  end type case_flow_t
 
   type, abstract :: case_t
     character(len=32) :: name = ''       !< the value of run.case and the name of its group
@@ -91,13 +98,12 @@ module case_base
     end subroutine max_speed_i
 
     !> Places the particles and sets their initial state; dx is the spacing.
-    subroutine setup_i(self, particles, physics, numerics, eos, parts, dx)
-      import :: case_t, particles_params_t, physics_params_t, numerics_params_t, eos_t, &
+    subroutine setup_i(self, particles, physics, eos, parts, dx)
+      import :: case_t, particles_params_t, physics_params_t, eos_t, &
                 particles_t, wp
       class(case_t), intent(inout) :: self
       type(particles_params_t), intent(in) :: particles
       type(physics_params_t), intent(in) :: physics
-      type(numerics_params_t), intent(in) :: numerics
       type(eos_t), intent(in) :: eos
       type(particles_t), intent(inout) :: parts
       real(wp), intent(out) :: dx
@@ -121,12 +127,14 @@ module case_base
       real(wp), allocatable, intent(out) :: values(:)
     end subroutine sample_i
 
-    !> Extra snapshot fields and attributes at time t (local particles).
-    subroutine fields_i(self, t, parts, f)
-      import :: case_t, particles_t, case_fields_t, wp
+    !> Extra snapshot fields and attributes at time t (local particles),
+    !> which may use the solver's fields of the flow.
+    subroutine fields_i(self, t, parts, flow, f)
+      import :: case_t, particles_t, case_fields_t, case_flow_t, wp
       class(case_t), intent(inout) :: self
       real(wp), intent(in) :: t
       type(particles_t), intent(in) :: parts
+      type(case_flow_t), intent(in) :: flow
       type(case_fields_t), intent(out) :: f
     end subroutine fields_i
 
@@ -156,15 +164,14 @@ contains
     if (.false.) var = self%name
   end subroutine no_check
 
-  !> The state at the current positions of particles of volume m/rho and
-  !> spacing dx, for cases that pack (none here).
-  subroutine no_initial_state(self, eos, dx, parts)
+  !> The state at the current positions of particles of volume m/rho, for
+  !> cases that pack (none here).
+  subroutine no_initial_state(self, eos, parts)
     class(case_t), intent(inout) :: self
     type(eos_t), intent(in) :: eos
-    real(wp), intent(in) :: dx
     type(particles_t), intent(inout) :: parts
     if (self%pack_radius > 0) error stop 'case_t: a case that packs must set its initial_state'
-    if (.false.) parts%n = parts%n + 0 * int(eos%c0 + dx)
+    if (.false.) parts%n = parts%n + 0 * int(eos%c0)
   end subroutine no_initial_state
 
 end module case_base

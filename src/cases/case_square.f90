@@ -22,8 +22,8 @@
 !> each particle with its partner (symmetry error below).
 module case_square
   use kinds, only: wp, pi
-  use case_base, only: case_t, case_fields_t
-  use input_params, only: particles_params_t, physics_params_t, numerics_params_t
+  use case_base, only: case_t, case_fields_t, case_flow_t
+  use input_params, only: particles_params_t, physics_params_t
   use kernels, only: kernel_t, kernel_init, kernel_kind_of
   use particles, only: particles_t, particles_allocate
   use eos, only: eos_t, eos_density
@@ -31,7 +31,7 @@ module case_square
                             poisson_square_eval, POISSON_DEFAULT_N
   use diagnostics, only: probe_pressure, kinetic_energy, total_momentum
   use flow_diagnostics, only: angular_momentum, gather_by_id, symmetry_error, topology_t, &
-                              fluid_topology, vorticity_2d, free_surface_lambda
+                              fluid_topology
   use spectrum, only: dominant_frequency
   use parallel_env, only: parallel_env_t
   use, intrinsic :: ieee_arithmetic, only: ieee_is_nan
@@ -63,7 +63,6 @@ module case_square
     real(wp) :: side = 1, rate = 1      !< L; omega (rotation) or V0 (vortical)
     real(wp) :: rho0 = 1, c0 = 10, dx = 1
     integer :: n_side = 0, n_global = 0
-    type(kernel_t) :: kernel            !< for the vorticity in snapshots
     integer, allocatable :: partner(:)  !< by id: the particle that started at S x0
     real(wp) :: sym(2, 2) = 0           !< the symmetry S
     real(wp) :: p_centre0 = 0           !< p_A(0) from the Poisson solution
@@ -97,18 +96,17 @@ contains
   !> sets u from the case's field, p from the Poisson solution, rho from the
   !> inverse equation of state and m = rho dx^2.  particles.placement is
   !> not used: the squares are always on a lattice.
-  subroutine square_setup(self, particles, physics, numerics, eos, parts, dx)
+  subroutine square_setup(self, particles, physics, eos, parts, dx)
     class(square_patch_t), intent(inout) :: self
     type(particles_params_t), intent(in) :: particles
     type(physics_params_t), intent(in) :: physics
-    type(numerics_params_t), intent(in) :: numerics
     type(eos_t), intent(in) :: eos
     type(particles_t), intent(inout) :: parts
     real(wp), intent(out) :: dx
     type(poisson_square_t) :: ps
     real(wp), allocatable :: f(:, :), xn(:), g(:)
     real(wp) :: x, y, p
-    integer :: i, j, id, ng, kind
+    integer :: i, j, id, ng
     self%dim = 2
     self%rho0 = physics%rho0
     self%c0 = physics%c0
@@ -177,9 +175,6 @@ contains
       self%topo0 = fluid_topology(xp(1:2, :), dx, CAVITY_AREA * l**2)
     end associate
     end associate
-
-    kind = kernel_kind_of(trim(numerics%kernel))
-    self%kernel = kernel_init(kind, 2, particles%h_over_dx * dx)
   end subroutine square_setup
 
   !> f'(s) for f(s) = exp(-(4 s/L)^2).
@@ -285,27 +280,25 @@ contains
   end subroutine record
 
   !> Snapshot fields: `vorticity`, the SPH curl of the velocity
-  !> (flow_diagnostics: vorticity_2d), `vorticity_initial`, the
+  !> (solver_flow_fields), `vorticity_initial`, the
   !> vorticity each particle started with, which an inviscid 2D flow keeps
   !> (-2 omega for the rotating square), and `free_surface_lambda`, the
   !> free-surface indicator (E9: below 0.55 on the free surface).  Attribute time_scaled: t omega
   !> (rotation) or t V0/L (vortical); rotation also p_centre_initial,
   !> kinetic_energy_ref.
-  subroutine square_fields(self, t, parts, f)
+  subroutine square_fields(self, t, parts, flow, f)
     class(square_patch_t), intent(inout) :: self
     real(wp), intent(in) :: t
     type(particles_t), intent(in) :: parts
+    type(case_flow_t), intent(in) :: flow
     type(case_fields_t), intent(out) :: f
     integer :: n
     n = parts%n
     f%scalar_names = [character(len=32) :: 'vorticity', 'vorticity_initial', &
                       'free_surface_lambda']
     allocate(f%vector_names(0), f%vectors(3, n, 0), f%scalars(n, 3))
-    ! halo copies (n+1 .. n+n_halo), when present, serve as neighbours
-    call vorticity_2d(self%kernel, n, n + parts%n_halo, parts%x, parts%u, parts%m, parts%rho, &
-                      f%scalars(:, 1))
-    call free_surface_lambda(self%kernel, 2, n, n + parts%n_halo, parts%x, parts%m, parts%rho, &
-                             f%scalars(:, 3))
+    f%scalars(:, 1) = flow%omega(1:n)
+    f%scalars(:, 3) = flow%lambda(1:n)
     if (self%kind == SQ_ROTATION) then
       f%scalars(:, 2) = -2 * self%rate
       f%attr_names = [character(len=32) :: 'time_scaled', 'p_centre_initial', &

@@ -8,10 +8,9 @@
 !> m = rho times the particle's area (volume).
 module case_stretching
   use kinds, only: wp
-  use case_base, only: case_t, case_fields_t
-  use input_params, only: particles_params_t, physics_params_t, numerics_params_t
-  use kernels, only: kernel_t, kernel_init, kernel_kind_of
-  use flow_diagnostics, only: free_surface_lambda
+  use case_base, only: case_t, case_fields_t, case_flow_t
+  use input_params, only: particles_params_t, physics_params_t
+  use kernels, only: kernel_t
   use particles, only: particles_t, particles_allocate
   use placement, only: place_ball, ball_spacing
   use eos, only: eos_t, eos_density
@@ -33,8 +32,6 @@ module case_stretching
     real(wp) :: rates(3) = 0            !< alpha_k(0) / A0
     real(wp) :: p0 = 0                  !< P(0), exact centre pressure at t = 0
     type(ellipse_exact_t) :: ex
-    type(kernel_t) :: kernel            !< for the free-surface indicator in snapshots
-    real(wp) :: h_over_dx = 2
     logical :: prepared = .false.       !< (I1) the compressible correction of u0
     ! running sums over samples (for the paper's time-averaged errors)
     integer :: n_samples = 0
@@ -55,11 +52,10 @@ contains
 
   !> Places the particles and sets their initial state (one rank holds all
   !> until the domain decomposition distributes them).
-  subroutine stretching_setup(self, particles, physics, numerics, eos, parts, dx)
+  subroutine stretching_setup(self, particles, physics, eos, parts, dx)
     class(stretching_t), intent(inout) :: self
     type(particles_params_t), intent(in) :: particles
     type(physics_params_t), intent(in) :: physics
-    type(numerics_params_t), intent(in) :: numerics
     type(eos_t), intent(in) :: eos
     type(particles_t), intent(inout) :: parts
     real(wp), intent(out) :: dx
@@ -93,23 +89,19 @@ contains
       parts%rho(i) = 1
       parts%id(i) = i
     end do
-    self%h_over_dx = particles%h_over_dx
-    self%kernel%kind = kernel_kind_of(trim(numerics%kernel))
-    call stretching_initial_state(self, eos, dx, parts)
+    call stretching_initial_state(self, eos, parts)
   end subroutine stretching_setup
 
   !> The initial state at the current positions x of the owned particles
   !> (paper eq. 1, X1) with particle spacing dx: x0 = x, u_k = alpha_k(0) x_k, p = P(0) (1 - |x|^2/R^2),
   !> rho from the inverse equation of state, m = rho V with the particle's
   !> volume V = m/rho of the state it replaces.
-  subroutine stretching_initial_state(self, eos, dx, parts)
+  subroutine stretching_initial_state(self, eos, parts)
     class(stretching_t), intent(inout) :: self
     type(eos_t), intent(in) :: eos
-    real(wp), intent(in) :: dx
     type(particles_t), intent(inout) :: parts
     real(wp) :: p, vol, kappa, r2
     integer :: i, d
-    self%kernel = kernel_init(self%kernel%kind, self%dim, self%h_over_dx * dx)
     d = self%dim
     ! (I1) the prepared start: div u = -(dP/dt)(0) (1 - r^2/R^2) / (rho0 c0^2)
     kappa = 0
@@ -208,10 +200,11 @@ contains
   !> and pressure at each particle's position, the free-surface indicator
   !> `free_surface_lambda` (E9); the exact semi-axes and centre pressure as
   !> attributes.
-  subroutine stretching_fields(self, t, parts, f)
+  subroutine stretching_fields(self, t, parts, flow, f)
     class(stretching_t), intent(inout) :: self
     real(wp), intent(in) :: t
     type(particles_t), intent(in) :: parts
+    type(case_flow_t), intent(in) :: flow
     type(case_fields_t), intent(out) :: f
     integer :: i, n
     n = parts%n
@@ -224,9 +217,7 @@ contains
       f%vectors(:, i, 2) = ellipse_velocity(self%ex, parts%x(:, i))
       f%scalars(i, 1) = ellipse_pressure(self%ex, parts%x(:, i))
     end do
-    ! (E9) the halo copies, when present, serve as neighbours
-    call free_surface_lambda(self%kernel, self%dim, n, n + parts%n_halo, parts%x, parts%m, &
-                             parts%rho, f%scalars(:, 2))
+    f%scalars(:, 2) = flow%lambda(1:n)
     f%attr_names = [character(len=32) :: 'semi_axes_exact_1', 'semi_axes_exact_2', &
                     'semi_axes_exact_3', 'p_centre_exact']
     f%attr_values = [self%ex%a, ellipse_centre_pressure(self%ex)]

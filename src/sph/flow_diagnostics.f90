@@ -1,19 +1,16 @@
 !> Diagnostics of the free-surface patches beyond the global sums of
 !> `diagnostics` (doc/theory.md D1, D3): angular momentum, the positions of
 !> all particles by global id (for symmetry checks), the topology of the
-!> fluid region (components and holes), the SPH vorticity and the
-!> free-surface indicator.
+!> fluid region (components and holes).  The vorticity and the
+!> free-surface indicator of the snapshots come from the solver's own list
+!> (solver_flow_fields).
 module flow_diagnostics
   use kinds, only: wp, i8
   use particles, only: particles_t
-  use kernels, only: kernel_t, kernel_f
-  use sym3, only: sym_min_eigenvalue
-  use fluid_rhs, only: LAMBDA_MIN
   use parallel_env, only: parallel_env_t, par_sum, par_sum_array
   implicit none
   private
-  public :: angular_momentum, gather_by_id, symmetry_error, topology_t, fluid_topology, &
-            vorticity_2d, free_surface_lambda
+  public :: angular_momentum, gather_by_id, symmetry_error, topology_t, fluid_topology
   public :: RASTER_CELL, FLUID_RADIUS, MIN_HOLE_AREA
 
   !> Rasterisation of the fluid region (fluid_topology), in units of the
@@ -241,156 +238,5 @@ contains
     end subroutine mark_outside
 
   end function fluid_topology
-
-  !> The SPH vorticity of 2D particles, omega_i = dv/dx - du/dy from the
-  !> renormalised velocity gradient (E3)
-  !>   grad u_i = [Sum_j V_j (u_j - u_i) (x) grad_i W_ij] L_i^T,
-  !>   L_i = M_i^-1, M_i = Sum_j V_j grad_i W_ij (x_j - x_i)^T,
-  !> exact for any linear velocity field (a rigid rotation gives -2 omega on
-  !> every particle, free surface included).  Where M_i is nearly singular
-  !> (smallest eigenvalue below LAMBDA_MIN, isolated particles) L_i = I.
-  !> Particles 1..n get a value; all of 1..ntot (owned and halo copies) serve
-  !> as neighbours.  A cell list of the kernel support finds them.
-  subroutine vorticity_2d(kernel, n, ntot, x, u, m, rho, omega)
-    type(kernel_t), intent(in) :: kernel
-    integer, intent(in) :: n, ntot
-    real(wp), intent(in) :: x(:, :), u(:, :), m(:), rho(:)
-    real(wp), intent(out) :: omega(n)
-    integer, allocatable :: head(:), next(:)
-    real(wp) :: lo(2), s, s2, xij(2), r2, f, v, g(2), du(2), gu(2, 2), mm(2, 2), det, lam, &
-                inv(2, 2), a(2, 2)
-    integer :: nc(2), i, j, ci, a1, b1, c_own(2)
-    s = kernel%support
-    s2 = s**2
-    if (ntot < 1) return
-    lo = minval(x(1:2, 1:ntot), dim=2)
-    nc = int((maxval(x(1:2, 1:ntot), dim=2) - lo) / s) + 1
-    allocate(head(nc(1) * nc(2)), next(ntot))
-    head = 0
-    do j = ntot, 1, -1
-      ci = cell_index(x(1:2, j))
-      next(j) = head(ci)
-      head(ci) = j
-    end do
-    do i = 1, n
-      gu = 0
-      mm = 0
-      c_own = 1 + int((x(1:2, i) - lo) / s)
-      do b1 = max(1, c_own(2) - 1), min(nc(2), c_own(2) + 1)
-        do a1 = max(1, c_own(1) - 1), min(nc(1), c_own(1) + 1)
-          j = head(a1 + nc(1) * (b1 - 1))
-          do while (j > 0)
-            xij = x(1:2, i) - x(1:2, j)
-            r2 = xij(1)**2 + xij(2)**2
-            if (j /= i .and. r2 < s2) then
-              f = kernel_f(kernel, sqrt(r2))
-              v = m(j) / rho(j)
-              g = f * xij                       ! grad_i W_ij
-              du = u(1:2, j) - u(1:2, i)
-              gu(:, 1) = gu(:, 1) + v * du * g(1)   ! gu(a, b) = Sum V du_a g_b
-              gu(:, 2) = gu(:, 2) + v * du * g(2)
-              mm(:, 1) = mm(:, 1) - v * g * xij(1)  ! Sum V g (x_j - x_i)^T
-              mm(:, 2) = mm(:, 2) - v * g * xij(2)
-            end if
-            j = next(j)
-          end do
-        end do
-      end do
-      ! M is symmetric up to rounding: its (1, 2) element serves the eigenvalue
-      lam = sym_min_eigenvalue(2, [mm(1, 1), mm(2, 2), 0.0_wp, mm(1, 2), 0.0_wp, 0.0_wp])
-      det = mm(1, 1) * mm(2, 2) - mm(1, 2) * mm(2, 1)
-      if (lam >= LAMBDA_MIN .and. det > 0) then
-        inv = reshape([mm(2, 2), -mm(2, 1), -mm(1, 2), mm(1, 1)], [2, 2]) / det
-        ! grad u = G L^T with G(a, b) = Sum V du_a g_b; L symmetric
-        a = matmul(gu, transpose(inv))
-      else
-        a = gu
-      end if
-      omega(i) = a(2, 1) - a(1, 2)
-    end do
-
-  contains
-
-    integer function cell_index(p)
-      real(wp), intent(in) :: p(2)
-      integer :: c(2)
-      c = 1 + int((p - lo) / s)
-      cell_index = c(1) + nc(1) * (c(2) - 1)
-    end function cell_index
-
-  end subroutine vorticity_2d
-
-  !> (E9) The free-surface indicator of Marrone et al. (2010) for the n owned
-  !> particles: lambda_i, the smallest eigenvalue of
-  !>   M_i = Sum_j V_j grad_i W_ij (x_j - x_i)^T
-  !> (the matrix whose inverse renormalises gradients, E3), about 1 inside
-  !> the fluid, 0.5 on a flat free surface, 0 for an isolated particle;
-  !> the solver treats lambda < 0.55 as free surface and 0.55 <= lambda <
-  !> 0.9 as near it (fluid_rhs: LAMBDA_SURFACE, LAMBDA_NEAR).  The halo
-  !> copies n+1..ntot, when present, serve as neighbours.  Its own cell
-  !> search, in memory order: equal to the solver's lambda to round-off.
-  subroutine free_surface_lambda(kernel, dim, n, ntot, x, m, rho, lambda)
-    type(kernel_t), intent(in) :: kernel
-    integer, intent(in) :: dim, n, ntot
-    real(wp), intent(in) :: x(:, :), m(:), rho(:)
-    real(wp), intent(out) :: lambda(n)
-    integer, allocatable :: head(:), next(:)
-    real(wp) :: lo(3), s, s2, xij(3), r2, f, mm(6)
-    integer :: nc(3), c(3), i, j, a1, b1, c1
-    s2 = kernel%support**2
-    if (ntot < 1) return
-    lo = 0
-    lo(1:dim) = minval(x(1:dim, 1:ntot), dim=2)
-    ! cells of at least the support, larger when a scattered cloud would
-    ! need many more cells than particles
-    s = kernel%support
-    do
-      nc = 1
-      nc(1:dim) = int((maxval(x(1:dim, 1:ntot), dim=2) - lo(1:dim)) / s) + 1
-      if (product(real(nc, wp)) <= 8.0_wp * ntot + 4096) exit
-      s = 1.25_wp * s
-    end do
-    allocate(head(product(nc)), next(ntot))
-    head = 0
-    do j = ntot, 1, -1
-      c = cell_of(x(:, j))
-      next(j) = head(c(1) + nc(1) * (c(2) - 1 + nc(2) * (c(3) - 1)))
-      head(c(1) + nc(1) * (c(2) - 1 + nc(2) * (c(3) - 1))) = j
-    end do
-    do i = 1, n
-      mm = 0
-      c = cell_of(x(:, i))
-      do c1 = max(1, c(3) - 1), min(nc(3), c(3) + 1)
-        do b1 = max(1, c(2) - 1), min(nc(2), c(2) + 1)
-          do a1 = max(1, c(1) - 1), min(nc(1), c(1) + 1)
-            j = head(a1 + nc(1) * (b1 - 1 + nc(2) * (c1 - 1)))
-            do while (j > 0)
-              xij = 0
-              xij(1:dim) = x(1:dim, i) - x(1:dim, j)
-              r2 = sum(xij**2)
-              if (j /= i .and. r2 < s2) then
-                f = kernel_f(kernel, sqrt(r2))
-                ! V_j g (x_j - x_i)^T = -V_j F x_ij x_ij^T, as (xx, yy, zz, xy, xz, yz)
-                mm = mm - m(j) / rho(j) * f * [xij(1)**2, xij(2)**2, xij(3)**2, &
-                                               xij(1) * xij(2), xij(1) * xij(3), xij(2) * xij(3)]
-              end if
-              j = next(j)
-            end do
-          end do
-        end do
-      end do
-      lambda(i) = sym_min_eigenvalue(dim, mm)
-    end do
-
-  contains
-
-    function cell_of(p) result(cc)
-      real(wp), intent(in) :: p(3)
-      integer :: cc(3)
-      cc = 1
-      cc(1:dim) = 1 + int((p(1:dim) - lo(1:dim)) / s)
-    end function cell_of
-
-  end subroutine free_surface_lambda
 
 end module flow_diagnostics

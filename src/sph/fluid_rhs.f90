@@ -123,15 +123,16 @@ contains
   !> density gradient (E2, E3) G_i = L_i Sum_j (rho_j - rho_i) g V_j
   !> (rhs_renormalisation).  Halo values are zero: they come from their
   !> owners by an exchange.
-  subroutine rhs_density_gradient(prm, n, ntot, x, rho, m, nl, grad_rho)
+  subroutine rhs_density_gradient(prm, n, ntot, x, rho, m, nl, grad_rho, work)
     type(rhs_params_t), intent(in) :: prm
     integer, intent(in) :: n, ntot
     real(wp), intent(in) :: x(3, ntot), rho(ntot), m(ntot)
     type(neighbour_list_t), intent(in) :: nl
     real(wp), intent(out) :: grad_rho(3, ntot)
+    type(rhs_work_t), intent(inout), optional :: work
     real(wp), allocatable :: lambda(:)
     allocate(lambda(ntot))
-    call rhs_renormalisation(prm, n, ntot, x, rho, m, nl, lambda, grad_rho=grad_rho)
+    call rhs_renormalisation(prm, n, ntot, x, rho, m, nl, lambda, grad_rho=grad_rho, work=work)
   end subroutine rhs_density_gradient
 
   !> The free-surface indicator (E9) of the n owned particles, and
@@ -146,13 +147,16 @@ contains
   !> surface) L_i = I is used instead.  lmat holds the symmetric L_i as
   !> (xx, yy, zz, xy, xz, yz).  Halo slots of lambda, lmat and grad_rho
   !> are zero: their owners compute them (exchange lambda and G if needed).
-  subroutine rhs_renormalisation(prm, n, ntot, x, rho, m, nl, lambda, lmat, grad_rho, work)
+  !> With phi, grad_rho is the same gradient of phi instead of rho (e.g. a
+  !> velocity component: flow_fields).
+  subroutine rhs_renormalisation(prm, n, ntot, x, rho, m, nl, lambda, lmat, grad_rho, work, phi)
     type(rhs_params_t), intent(in) :: prm
     integer, intent(in) :: n, ntot
     real(wp), intent(in) :: x(3, ntot), rho(ntot), m(ntot)
     type(neighbour_list_t), intent(in) :: nl
     real(wp), intent(out) :: lambda(ntot)
     real(wp), intent(out), optional :: lmat(6, ntot), grad_rho(3, ntot)
+    real(wp), intent(in), optional :: phi(ntot)
     type(rhs_work_t), intent(inout), optional, target :: work
     type(rhs_work_t), target :: own
     type(rhs_work_t), pointer :: w
@@ -165,8 +169,12 @@ contains
     call rhs_work_reserve(w, ntot, nl, REC_SHORT)
     associate(rec => w%rec, r => w%rb, nr => size(w%jl), acc => w%mom)
     ! rec: V and rho per particle; acc: M (1:6) and the sum of G (7:9)
-    rec(R_RHO, 1:ntot) = rho(1:ntot)
     rec(R_VOL, 1:ntot) = m(1:ntot) / rho(1:ntot)
+    if (present(phi)) then
+      rec(R_RHO, 1:ntot) = phi(1:ntot)
+    else
+      rec(R_RHO, 1:ntot) = rho(1:ntot)
+    end if
     acc(:, 1:ntot) = 0
     if (with_g) then
       call moment_rows(.true., prm%kernel, ntot, x, nl, size(rec, 1), rec, nr, w%jl, r(:, 1), &

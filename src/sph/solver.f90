@@ -18,7 +18,7 @@ module solver
   use integrators, only: integrator_t, integrator_reserve, integrator_stages, integrator_advance
   implicit none
   private
-  public :: solver_t, solver_init, solver_step, solver_evaluate, solver_rebuild, &
+  public :: solver_t, solver_init, solver_step, solver_evaluate, solver_rebuild, solver_flow_fields, &
             solver_time_step, solver_sync_halo
 
   type :: solver_t
@@ -179,6 +179,37 @@ contains
     ntot = s%parts%n + s%parts%n_halo
     s%parts%p(s%parts%n + 1:ntot) = eos_pressure(s%eos, s%parts%rho(s%parts%n + 1:ntot))
   end subroutine solver_sync_halo
+
+  !> Fields of the flow for the snapshots, on the solver's list in its
+  !> canonical order (bitwise the same on any number of ranks): lambda(n),
+  !> the free-surface indicator (E9), and in 2D omega(n) = dv/dx - du/dy,
+  !> the vorticity of the renormalised velocity gradient (E2, E3; exact
+  !> for a linear velocity; L_i = I where lambda_i < LAMBDA_MIN).  The
+  !> halo copies must be current (solver_sync_halo) and the list valid at
+  !> the positions (it is at the end of a step).  omega is empty in 3D.
+  subroutine solver_flow_fields(s, lambda, omega)
+    type(solver_t), intent(in) :: s
+    real(wp), allocatable, intent(out) :: lambda(:), omega(:)
+    real(wp), allocatable :: lam(:), g(:, :)
+    integer :: n, ntot
+    n = s%parts%n
+    ntot = n + s%parts%n_halo
+    allocate(lam(max(ntot, 1)), g(3, max(ntot, 1)))
+    associate(pt => s%parts)
+      if (pt%dim == 2) then
+        call rhs_renormalisation(s%rhs, n, ntot, pt%x, pt%rho, pt%m, s%lm%nl, lam, &
+                                 grad_rho=g, phi=pt%u(2, 1:ntot))
+        omega = g(1, 1:n)
+        call rhs_renormalisation(s%rhs, n, ntot, pt%x, pt%rho, pt%m, s%lm%nl, lam, &
+                                 grad_rho=g, phi=pt%u(1, 1:ntot))
+        omega = omega - g(2, 1:n)
+      else
+        call rhs_renormalisation(s%rhs, n, ntot, pt%x, pt%rho, pt%m, s%lm%nl, lam)
+        allocate(omega(0))
+      end if
+    end associate
+    lambda = lam(1:n)
+  end subroutine solver_flow_fields
 
   !> (T3) dt = min(cfl h/(c0 + Umax), cfl_force sqrt(h/max|a|), cfl_visc h^2/nu)
   !> from the velocities and the accelerations in s%du.
