@@ -850,7 +850,7 @@ contains
     integer(i8), intent(in) :: offset, n_global
     character(len=:), allocatable, intent(inout) :: errmsg
     integer(hid_t) :: fspace, mspace, dset
-    integer(hsize_t) :: fdims(2), mdims(2), start(2), count(2)
+    integer(hsize_t) :: fdims(2), mdims(2)
     integer :: err, e, r
     good = .false.
     r = merge(1, 2, ncomp == 1)
@@ -872,21 +872,7 @@ contains
     end if
     mdims = [int(lead, hsize_t), int(max(n_local, 1), hsize_t)]
     call h5screate_simple_f(2, mdims, mspace, err)
-    if (n_local > 0) then
-      start = 0
-      count = [int(ncomp, hsize_t), int(n_local, hsize_t)]
-      call h5sselect_hyperslab_f(mspace, H5S_SELECT_SET_F, start, count, e)
-      if (r == 1) then
-        call h5sselect_hyperslab_f(fspace, H5S_SELECT_SET_F, [int(offset, hsize_t)], &
-                                   count(2:2), e)
-      else
-        call h5sselect_hyperslab_f(fspace, H5S_SELECT_SET_F, &
-                                   [0_hsize_t, int(offset, hsize_t)], count, e)
-      end if
-    else
-      call h5sselect_none_f(mspace, e)
-      call h5sselect_none_f(fspace, e)
-    end if
+    call select_rows(fspace, mspace, ncomp, n_local, offset)
     ! an empty dataset (no particle anywhere) has no storage to write to
     if (n_global > 0) call h5dwrite_f(dset, mem_type, buf, err, mem_space_id=mspace, &
                                       file_space_id=fspace, xfer_prp=xfer)
@@ -908,7 +894,7 @@ contains
     integer(i8), intent(in) :: offset
     character(len=:), allocatable, intent(inout) :: errmsg
     integer(hid_t) :: fspace, mspace, dset
-    integer(hsize_t) :: mdims(2), count(2)
+    integer(hsize_t) :: mdims(2)
     integer(hsize_t) :: fdims(2), maxdims(2)
     integer :: err, e, nd
     type(c_ptr) :: ptr
@@ -921,19 +907,7 @@ contains
     call h5dget_space_f(dset, fspace, err)
     mdims = [int(ncomp, hsize_t), int(max(n_local, 1), hsize_t)]
     call h5screate_simple_f(2, mdims, mspace, err)
-    if (n_local > 0) then
-      count = [int(ncomp, hsize_t), int(n_local, hsize_t)]
-      if (ncomp == 1) then
-        call h5sselect_hyperslab_f(fspace, H5S_SELECT_SET_F, [int(offset, hsize_t)], &
-                                   count(2:2), e)
-      else
-        call h5sselect_hyperslab_f(fspace, H5S_SELECT_SET_F, &
-                                   [0_hsize_t, int(offset, hsize_t)], count, e)
-      end if
-    else
-      call h5sselect_none_f(mspace, e)
-      call h5sselect_none_f(fspace, e)
-    end if
+    call select_rows(fspace, mspace, ncomp, n_local, offset)
     ptr = buf
     ! an empty dataset has no storage to read from (h5sget_simple_extent_
     ! npoints_f would call an empty dataspace an error: use the extent)
@@ -949,6 +923,32 @@ contains
     call h5dclose_f(dset, e)
     good = err >= 0
   end function read_block
+
+  !> Selects this rank's rows offset+1 .. offset+n_local of a dataset of
+  !> ncomp components ((N) if ncomp = 1, else (ncomp, N)) in its file space
+  !> and the first ncomp rows of the n_local columns of the memory space;
+  !> nothing in either when n_local = 0 (the rank still takes part).
+  subroutine select_rows(fspace, mspace, ncomp, n_local, offset)
+    integer(hid_t), intent(in) :: fspace, mspace
+    integer, intent(in) :: ncomp, n_local
+    integer(i8), intent(in) :: offset
+    integer(hsize_t) :: count(2)
+    integer :: e
+    if (n_local > 0) then
+      count = [int(ncomp, hsize_t), int(n_local, hsize_t)]
+      call h5sselect_hyperslab_f(mspace, H5S_SELECT_SET_F, [0_hsize_t, 0_hsize_t], count, e)
+      if (ncomp == 1) then
+        call h5sselect_hyperslab_f(fspace, H5S_SELECT_SET_F, [int(offset, hsize_t)], &
+                                   count(2:2), e)
+      else
+        call h5sselect_hyperslab_f(fspace, H5S_SELECT_SET_F, &
+                                   [0_hsize_t, int(offset, hsize_t)], count, e)
+      end if
+    else
+      call h5sselect_none_f(mspace, e)
+      call h5sselect_none_f(fspace, e)
+    end if
+  end subroutine select_rows
 
   logical function write_attr_real(loc, name, value, errmsg) result(good)
     integer(hid_t), intent(in) :: loc
