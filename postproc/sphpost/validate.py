@@ -576,9 +576,10 @@ def write_report(path, doc, circle, ell, squares, args, total_wall, jobs, load):
         w("The paper: \"errors on the kinematic quantities are very comparable to those found "
           "in two dimensions for the same discretization\". Compare at equal dx/R with the "
           f"circle2d table{near}. In 3D, with "
-          f"c0 = {c.c0:g}, the lowest acoustic frequency c0/(2R) is only 2.5 times the flow's "
-          "rate 2 A0, so the filter cannot separate the acoustic part as cleanly as in 2D "
-          "(see the filter-bias column).")
+          f"c0 = {c.c0:g}, the lowest acoustic frequency c0/(2R) is only "
+          f"{c.f_acoustic / max(abs(a) for a in c.rates):.3g} times the flow's largest rate "
+          f"{max(abs(a) for a in c.rates) / c.rate:g} A0, so the filter cannot separate the "
+          "acoustic part as cleanly as in 2D (see the filter-bias column).")
         w("")
         if "convergence" in ell["figs"]:
             w(f"![ellipsoid3d convergence]({rel(ell['figs']['convergence'], doc)})")
