@@ -54,7 +54,7 @@ LIB_OBJ   := $(sort $(patsubst %.f90,$(BUILD)/%.o,$(notdir $(LIB_SRC))))
 
 vpath %.f90 $(SRC_DIRS) tests
 
-.PHONY: all sph debug test unit bench validate clean
+.PHONY: all sph debug test unit bench validate input-doc clean
 all: sph
 
 # copy then rename: replaces ./sph atomically, even while it is running
@@ -202,6 +202,11 @@ validate: sph
 # runs both alternately, printing the speed-up per case.
 bench: sph
 	$(PYTHON) tests/bench/run_bench.py $(BENCH_ARGS) $(if $(BASELINE),--baseline $(BASELINE))
+
+# doc/input.md's tables of variables, rewritten from `sph --input-tables`
+# (the rows that describe each variable); the test suite checks they agree.
+input-doc: sph
+	$(PYTHON) tests/integration/test_input_doc.py --write
 
 debug:
 	$(MAKE) BUILD=build/debug \

@@ -2,7 +2,8 @@
 !>   mpirun -np P ./sph input/<case>.nml [group.variable=value ...]
 program sph
   use, intrinsic :: iso_fortran_env, only: output_unit, error_unit
-  use config, only: config_t, config_load, config_write_defaults, config_write_help
+  use config, only: config_t, config_load, config_write_defaults, config_write_help, &
+                    config_write_input_tables
   use parallel_env, only: parallel_env_t, par_start, par_stop
   use simulation, only: simulation_run
   implicit none
@@ -27,6 +28,9 @@ program sph
       call par_stop(env, 0)
     case ('--defaults')
       if (env%rank == 0) call config_write_defaults(output_unit)
+      call par_stop(env, 0)
+    case ('--input-tables')
+      if (env%rank == 0) call config_write_input_tables(output_unit)
       call par_stop(env, 0)
     case default
       if (arg(1:min(1, len(arg))) == '-') then
@@ -62,6 +66,7 @@ contains
     integer, intent(in) :: u
     write(u, '(a)') 'usage: mpirun -np P ./sph INPUT.nml [group.variable=value ...]'
     write(u, '(a)') '       ./sph --defaults     print a complete input file with every default'
+    write(u, '(a)') '       ./sph --input-tables print the tables of doc/input.md (markdown)'
     write(u, '(a)') '       ./sph --help         print this help'
     write(u, '(a)') ''
     write(u, '(a)') 'Runs the case described by the namelist file INPUT.nml (see input/ and'

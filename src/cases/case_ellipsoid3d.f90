@@ -48,7 +48,11 @@ contains
             'initial velocity u_k = rates(k) A0 x_k (rates in units of A0)'), &
       var_t(0, 'prepared', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
             'add the compressible part of the start (I1, doc/numerics.md): ' // &
-            'no acoustic mode from P''(0)')]
+            'no acoustic mode from P''(0)', &
+            doc='add the compressible part of the initial velocity (I1, ' // &
+                '[numerics.md](numerics.md)): without it the falling centre pressure ' // &
+                'rings the lowest acoustic mode (6-8 % of P(0) at c0 = 10); ' // &
+                'input/ellipsoid3d.nml sets it')]
     if (.false.) vars(1)%help = self%help
   end function ellipsoid3d_vars
 

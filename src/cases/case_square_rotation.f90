@@ -38,7 +38,9 @@ contains
       var_t(0, 'side', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
             'side L of the initial square, centred at the origin'), &
       var_t(0, 'omega', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
-            'omega: initial rigid rotation u = omega y, v = -omega x')]
+            'omega: initial rigid rotation u = omega y, v = -omega x', &
+            doc='omega: initial rigid rotation u = omega y, v = -omega x; the pressure ' // &
+                'solves Laplacian p = 2 rho0 omega^2, p = 0 on the edges')]
     if (.false.) vars(1)%help = self%help
   end function square_rotation_vars
 

@@ -38,7 +38,10 @@ contains
       var_t(0, 'side', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
             'side L of the initial square, centred at the origin'), &
       var_t(0, 'v0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
-            'V0: initial u = V0 (f(y) - e^-4), v = -V0 (f(x) - e^-4), f(s) = exp(-(4s/L)^2)')]
+            'V0: initial u = V0 (f(y) - e^-4), v = -V0 (f(x) - e^-4), f(s) = exp(-(4s/L)^2)', &
+            doc='V0: initial u = V0 (f(y) - e^-4), v = -V0 (f(x) - e^-4), f(s) = exp(-(4 ' // &
+                's/L)^2); the pressure solves Laplacian p = 2 rho0 (32 V0/L^2)^2 x y ' // &
+                'f(x) f(y), p = 0 on the edges ([doc/theory.md](theory.md) X4)')]
     if (.false.) vars(1)%help = self%help
   end function square_vortical_vars
 

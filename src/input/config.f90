@@ -31,7 +31,7 @@ module config
   public :: config_t, run_params_t, particles_params_t, physics_params_t, &
             numerics_params_t, output_params_t, parallel_params_t
   public :: config_load, config_defaults, config_write_defaults, config_echo, &
-            config_write_help, config_dim, config_case, config_scaled, config_resolution_scale
+            config_write_help, config_write_input_tables, config_dim, config_case, config_scaled, config_resolution_scale
   public :: NAME_LEN, DIR_LEN_MAX, MAX_PROBES
 
   !> The whole configuration.  The generic groups have their defaults; the
@@ -185,6 +185,94 @@ contains
       write(unit, '(a)') '  ' // pad(lhs // ' = ' // text, 40) // ' ' // allowed_text(vars(k))
     end do
   end subroutine config_write_help
+
+  !> Writes the tables of doc/input.md (markdown), for each group a line
+  !> `&group` and the table of its variables: name, type, default, what is
+  !> allowed and what it means, all from the variables' rows (var_t).
+  subroutine config_write_input_tables(unit)
+    integer, intent(in) :: unit
+    character(len=*), parameter :: TYPES(4) = [character(len=7) :: 'integer', 'real', &
+                                                'string', 'logical']
+    type(group_t), allocatable :: groups(:)
+    type(var_t), allocatable :: vars(:)
+    type(config_t) :: defaults
+    character(len=:), allocatable :: text, typ, meaning
+    real(wp) :: x
+    integer :: g, k
+    call list_groups(groups)
+    call list_vars(vars)
+    defaults = config_defaults()
+    do g = 1, size(groups)
+      write(unit, '(a)') '&' // trim(groups(g)%name), &
+        '| variable | type | default | allowed | meaning |', '|---|---|---|---|---|'
+      do k = 1, size(vars)
+        if (vars(k)%group /= g) cycle
+        associate(v => vars(k))
+          typ = trim(TYPES(v%type))
+          if (v%dims(2) > 0) then
+            typ = typ // '(' // int_str(v%dims(1)) // ',' // int_str(v%dims(2)) // ')'
+            text = 'all `0.0`'
+          else
+            if (v%dims(1) > 0) typ = typ // '(' // int_str(v%dims(1)) // ')'
+            call get_value(defaults, v, text, x)
+            text = '`' // text // '`'
+          end if
+          meaning = trim(v%doc)
+          if (len(meaning) == 0) meaning = trim(v%help)
+          write(unit, '(a)') '| `' // trim(v%name) // '` | ' // typ // ' | ' // text // &
+            ' | ' // md_cell(allowed_markdown(v)) // ' | ' // md_cell(meaning) // ' |'
+        end associate
+      end do
+      write(unit, '(a)') ''
+    end do
+  end subroutine config_write_input_tables
+
+  !> s with every | escaped, for a markdown table cell.
+  function md_cell(s) result(t)
+    character(len=*), intent(in) :: s
+    character(len=:), allocatable :: t
+    integer :: k
+    t = ''
+    do k = 1, len(s)
+      if (s(k:k) == '|') t = t // '\'
+      t = t // s(k:k)
+    end do
+  end function md_cell
+
+  !> What is allowed for v, as doc/input.md writes it: the words, the range
+  !> (lo .. hi when both ends are included), then the rule, if any.
+  function allowed_markdown(v) result(s)
+    type(var_t), intent(in) :: v
+    character(len=:), allocatable :: s
+    character(len=:), allocatable :: name
+    character(len=32), allocatable :: words(:)
+    integer :: k
+    name = trim(v%name)
+    s = ''
+    if (v%choices /= CH_NONE) then
+      words = choice_list(v%choices)
+      do k = 1, size(words)
+        if (k > 1) s = s // ', '
+        s = s // "`'" // trim(words(k)) // "'`"
+      end do
+    else if (v%lo_rule == LO_GE .and. v%hi_rule == HI_LE) then
+      s = num_str(v%lo) // ' .. ' // num_str(v%hi)
+    else if (v%lo_rule /= LO_NONE .and. v%hi_rule /= HI_NONE) then
+      s = num_str(v%lo) // lo_op(v%lo_rule) // name // hi_op(v%hi_rule) // num_str(v%hi)
+    else if (v%lo_rule /= LO_NONE) then
+      s = merge('> ', '>=', v%lo_rule == LO_GT)
+      s = trim(s) // ' ' // num_str(v%lo)
+    else if (v%hi_rule /= HI_NONE) then
+      s = merge('< ', '<=', v%hi_rule == HI_LT)
+      s = trim(s) // ' ' // num_str(v%hi)
+    else if (v%type == T_LOGICAL) then
+      s = '`.true.`, `.false.`'
+    end if
+    if (len_trim(v%rule) > 0) then
+      if (len(s) > 0) s = s // ', '
+      s = s // trim(v%rule)
+    end if
+  end function allowed_markdown
 
   !> The dimension of the selected case (2 or 3), 0 if the case is unknown.
   integer function config_dim(cfg)

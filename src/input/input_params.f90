@@ -68,7 +68,9 @@ module input_params
   !> The variables of the generic groups (group: index into GENERIC_GROUPS).
   type(var_t), parameter :: GENERIC_VARS(*) = [ &
     var_t(G_RUN, 'case', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_CASE, '', &
-          'the test case; its own group sets its geometry'), &
+          'the test case; its own group sets its geometry', &
+          doc='the test case. Its own group (`&circle2d`, `&ellipsoid3d`, ' // &
+              '`&square_rotation`, `&square_vortical`) sets its geometry and initial flow'), &
     var_t(G_RUN, 't_end', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
           'end time (read as t A0 with the non-dimensional defaults)'), &
     var_t(G_RUN, 'max_steps', T_INT, SCALAR, LO_GE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
@@ -77,28 +79,50 @@ module input_params
           CH_NONE, '', 'wall-clock seconds between progress lines'), &
     var_t(G_RUN, 'restart', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
           'empty, or an existing snapshot file of the same case', &
-          'snapshot to continue the run from, e.g. runs/circle2d/snap_00010.h5 (empty: none)'), &
+          'snapshot to continue the run from, e.g. runs/circle2d/snap_00010.h5 (empty: none)', &
+          doc='continue the run from this snapshot (`runs/circle2d/snap_00010.h5`), with ' // &
+              'any number of ranks; the snapshot numbering, XDMF index and time series ' // &
+              'in `output.dir` continue (doc/parallel.md)'), &
     var_t(G_PARTICLES, 'n', T_INT, SCALAR, LO_GE, HI_LE, 50.0_wp, 2000000000.0_wp, CH_NONE, &
           '', 'approximate number of particles; the spacing dx follows from it'), &
     var_t(G_PARTICLES, 'placement', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_PLACEMENT, '', 'rings: concentric rings (shells); lattice: square (cubic) ' // &
-          'lattice clipped; packed: relaxed (doc/packing.md)'), &
+          'lattice clipped; packed: relaxed (doc/packing.md)', &
+          doc='`rings`: concentric rings (3D: shells) of spacing dx; `lattice`: square ' // &
+              '(cubic) lattice clipped to the body; `packed`: relaxed into a uniform, ' // &
+              'isotropic arrangement with a sharp surface (circle2d and ellipsoid3d ' // &
+              'only, [packing.md](packing.md); both input files use it). The square ' // &
+              'patches are always on a lattice of nint(sqrt(n)) x nint(sqrt(n)) ' // &
+              'particles and refuse `packed`'), &
     var_t(G_PARTICLES, 'h_over_dx', T_REAL, SCALAR, LO_GE, HI_LE, 1.0_wp, 8.0_wp, CH_NONE, &
-          '', 'smoothing length h over particle spacing dx'), &
+          '', 'smoothing length h over particle spacing dx', &
+          doc='smoothing length h over particle spacing dx (at `n_ref` particles when ' // &
+              '`n_ref > 0`)'), &
     var_t(G_PARTICLES, 'n_ref', T_REAL, SCALAR, LO_GE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
           'resolution scaling: h_over_dx, c0, alpha, delta hold at this count; 0: none ' // &
-          '(doc/convergence.md)'), &
+          '(doc/convergence.md)', &
+          doc='resolution scaling (doc/convergence.md, S1): `h_over_dx`, `c0`, `alpha` ' // &
+              'and `delta` hold as given at `n_ref` particles and scale with s = ' // &
+              '(n/n_ref)^(1/dim) = dx_ref/dx by their exponents; 0: no scaling. The run ' // &
+              'prints the values it uses; the echoed `input.nml` keeps the given ones'), &
     var_t(G_PARTICLES, 'h_exponent', T_REAL, SCALAR, LO_GE, HI_LE, 0.0_wp, 1.0_wp, CH_NONE, &
           '', 'with n_ref > 0: h/dx = h_over_dx (n/n_ref)^(h_exponent/dim)'), &
     var_t(G_PARTICLES, 'pack_iterations', T_INT, SCALAR, LO_GE, HI_LE, 1.0_wp, 100000.0_wp, &
-          CH_NONE, '', 'most iterations of the packing (placement = ''packed'')'), &
+          CH_NONE, '', 'most iterations of the packing (placement = ''packed'')', &
+          doc='most iterations of the packing (`placement = ''packed''`); it stops ' // &
+              'earlier when every move is below 1e-4 dx'), &
     var_t(G_PARTICLES, 'from', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
           'empty, or a snapshot of a packed run of the same case', &
-          'snapshot whose initial positions are the packed particles (empty: pack anew)'), &
+          'snapshot whose initial positions are the packed particles (empty: pack anew)', &
+          doc='reuse a packed distribution: the initial positions (`position_initial`) ' // &
+              'of any snapshot of a packed run of the same case, e.g. ' // &
+              '`runs/e1M/snap_00000.h5`, instead of packing again; dx follows from its ' // &
+              'particle count and `n` is not used'), &
     var_t(G_PHYSICS, 'rho0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
           'reference density'), &
     var_t(G_PHYSICS, 'c0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
-          'speed of sound; at least 3 times the largest initial speed of the case'), &
+          'speed of sound (at n_ref particles when scaled); at least 3 times the largest ' // &
+          'initial speed of the case'), &
     var_t(G_PHYSICS, 'c0_exponent', T_REAL, SCALAR, LO_GE, HI_LE, 0.0_wp, 2.0_wp, CH_NONE, &
           '', 'with particles.n_ref > 0: c0 = c0 (n/n_ref)^(c0_exponent/dim)'), &
     var_t(G_PHYSICS, 'eos', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_EOS, '', &
@@ -123,35 +147,78 @@ module input_params
     var_t(G_NUMERICS, 'alpha', T_REAL, SCALAR, LO_GE, HI_LE, 0.0_wp, 1.0_wp, CH_NONE, '', &
           'artificial viscosity coefficient'), &
     var_t(G_NUMERICS, 'alpha_exponent', T_REAL, SCALAR, LO_GE, HI_LE, -2.0_wp, 2.0_wp, &
-          CH_NONE, '', 'with particles.n_ref > 0: alpha = alpha (n/n_ref)^(alpha_exponent/dim)'), &
+          CH_NONE, '', 'with particles.n_ref > 0: alpha = alpha (n/n_ref)^(alpha_exponent/dim)', &
+          doc='with `particles.n_ref > 0`: alpha = `alpha` s^`alpha_exponent` (-1: alpha ' // &
+              'proportional to dx)'), &
     var_t(G_NUMERICS, 'diffusion', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_DIFFUSION, '', 'density diffusion: molteni (delta-SPH without gradient ' // &
-          'correction), antuono (with it), or none'), &
+          'correction), antuono (with it), or none', &
+          doc='density diffusion: delta-SPH without gradient correction (`molteni`), ' // &
+              'with the renormalised density gradient (`antuono`), or none'), &
     var_t(G_NUMERICS, 'delta', T_REAL, SCALAR, LO_GE, HI_LE, 0.0_wp, 1.0_wp, CH_NONE, '', &
           'density diffusion coefficient'), &
     var_t(G_NUMERICS, 'delta_exponent', T_REAL, SCALAR, LO_GE, HI_LE, -2.0_wp, 2.0_wp, &
           CH_NONE, '', 'with particles.n_ref > 0: delta = delta (n/n_ref)^(delta_exponent/dim)'), &
     var_t(G_NUMERICS, 'skin', T_REAL, SCALAR, LO_GE, HI_LE, 0.0_wp, 2.0_wp, CH_NONE, '', &
-          'smallest neighbour-list skin in units of h (widened when a step needs more)'), &
+          'smallest neighbour-list skin in units of h (widened when a step needs more)', &
+          doc='smallest neighbour-list skin, in units of h; the list is rebuilt when an ' // &
+              'unlisted pair could come within the support during the next step ' // &
+              '(affine-motion test), and a rebuild widens the skin when one step''s ' // &
+              'motion needs more (see doc/numerics.md)'), &
     var_t(G_NUMERICS, 'tensile', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_NONE, '', 'tensile instability control (Monaghan 2000): a repulsion ' // &
-          'between particles under negative pressure'), &
+          'between particles under negative pressure', &
+          doc='tensile instability control (Monaghan 2000, [doc/theory.md](theory.md) ' // &
+              'E7): a repulsion -Sum_j m_j (R_i + R_j) (W_ij/W(dx))^n grad_i W_ij ' // &
+              'between particles under negative pressure. Needed by the square patches ' // &
+              'unless `shifting` keeps the particles regular (on in ' // &
+              '`input/square_vortical.nml`; `input/square_rotation.nml` uses shifting, ' // &
+              'which measured better: doc/numerics.md)'), &
     var_t(G_NUMERICS, 'tensile_eps', T_REAL, SCALAR, LO_GT, HI_LE, 0.0_wp, 1.0_wp, CH_NONE, &
-          '', 'tensile control strength: R_i = tensile_eps |p_i|/rho_i^2 where p_i < 0'), &
+          '', 'tensile control strength: R_i = tensile_eps |p_i|/rho_i^2 where p_i < 0', &
+          doc='R_i = tensile_eps |p_i|/rho_i^2 where p_i < 0, else 0. 0.4 is the best ' // &
+              'measured with `wendland_c2` at h = 2 dx: 0.2 (Monaghan''s value) lets the ' // &
+              'rotating square open voids, 0.5 and more compress its core ' // &
+              '(doc/numerics.md)'), &
     var_t(G_NUMERICS, 'tensile_n', T_INT, SCALAR, LO_GE, HI_LE, 1.0_wp, 8.0_wp, CH_NONE, &
           '', 'tensile control exponent n of (W_ij/W(dx))^n'), &
     var_t(G_NUMERICS, 'pressure_gradient', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, &
           0.0_wp, CH_PRESSURE_GRADIENT, '', 'standard: the (p_i + p_j) form; higher_order: ' // &
-          'the renormalised (p_j - p_i) form away from the free surface'), &
+          'the renormalised (p_j - p_i) form away from the free surface', &
+          doc='`standard`: -(1/rho_i) Sum_j (p_i + p_j) grad_i W_ij V_j (E4), ' // &
+              'conservative; `higher_order`: inside the fluid (free-surface indicator ' // &
+              'lambda >= 0.9) 0.9 times the consistent -(1/rho_i) L_i Sum_j (p_j - p_i) ' // &
+              'grad_i W_ij V_j with p = 0 on free-surface particles (lambda < 0.55) plus ' // &
+              '0.1 times the standard form; the standard form on and near the free ' // &
+              'surface (lambda <= 0.7), a linear blend between (doc/numerics.md, "the ' // &
+              'blend"). Not conservative; use it with `divergence = ''renormalised''` ' // &
+              '(alone it lost 17 % of the rotating square''s kinetic energy)'), &
     var_t(G_NUMERICS, 'divergence', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_DIVERGENCE, '', 'velocity divergence of the continuity equation: standard, ' // &
-          'or renormalised (exact for linear u)'), &
+          'or renormalised (exact for linear u)', &
+          doc='velocity divergence of the continuity equation (E1): `standard` Sum_j V_j ' // &
+              '(u_j - u_i) . grad_i W_ij; `renormalised` Sum_j V_j (u_j - u_i) . (L_i ' // &
+              'grad_i W_ij), exact for linear velocity fields also at the free surface ' // &
+              '(L_i the renormalisation matrix, E3), 55 % more time a step. Momentum and ' // &
+              'angular momentum stay exactly conserved either way. The renormalised form ' // &
+              'cut the velocity error of circle2d and ellipsoid3d 1.2 to 3.7 times ' // &
+              '(doc/numerics.md)'), &
     var_t(G_NUMERICS, 'renormalise', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_RENORMALISE, '', 'L_i and lambda_i of the renormalised operators at every ' // &
-          'stage, or once a step (doc/numerics.md)'), &
+          'stage, or once a step (doc/numerics.md)', &
+          doc='when the renormalised operators compute L_i and lambda_i: at every RK4 ' // &
+              'stage, or once a step for all its stages (27 % less time a step on ' // &
+              'ellipsoid3d, errors unchanged: [numerics.md](numerics.md))'), &
     var_t(G_NUMERICS, 'shifting', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_NONE, '', 'particle shifting after each step (delta-plus-SPH, Sun et al. ' // &
-          '2017), none on the free surface'), &
+          '2017), none on the free surface', &
+          doc='particle shifting after each step (delta-plus-SPH, Sun et al. 2017, ' // &
+              '[doc/theory.md](theory.md) E8): dr_i = -CFL Ma (2h)^2 Sum_j [1 + 0.2 ' // &
+              '(W_ij/W(dx))^4] grad_i W_ij V_j, none on the free surface (lambda < ' // &
+              '0.55), only tangential near it (lambda < 0.9). Positions only. Keeps the ' // &
+              'rotating square in one piece without the tensile control (on in ' // &
+              '`input/square_rotation.nml`); breaks the Lagrangian map (circle2d''s ' // &
+              'position error doubles): off by default'), &
     var_t(G_OUTPUT, 'dir', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
           'a non-empty path of at most 255 characters', 'run directory'), &
     var_t(G_OUTPUT, 'dt', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
@@ -164,13 +231,21 @@ module input_params
           CH_NONE, '', 'number of pressure probes'), &
     var_t(G_OUTPUT, 'probes', T_REAL, [3, MAX_PROBES], LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_NONE, 'finite numbers', &
-          'probe k at probes(1:3,k); the third component is ignored in 2D'), &
+          'probe k at probes(1:3,k); the third component is ignored in 2D', &
+          doc='probe k is at `probes(1:3,k)`, k = 1..n_probes. The third component is ' // &
+              'ignored in 2D'), &
     var_t(G_PARALLEL, 'decomposition', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_DECOMPOSITION, '', 'slabs along the longest axis, or a METIS partition of cells'), &
+          CH_DECOMPOSITION, '', 'slabs along the longest axis, or a METIS partition of cells', &
+          doc='slabs along the longest axis of the particle cloud, or a METIS partition ' // &
+              'of the graph of occupied cells'), &
     var_t(G_PARALLEL, 'balance', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_BALANCE, '', 'work measure for the balance: particle count or listed pairs'), &
+          CH_BALANCE, '', 'work measure for the balance: particle count or listed pairs', &
+          doc='the work to balance: particle counts, or each particle''s number of ' // &
+              'listed pairs'), &
     var_t(G_PARALLEL, 'imbalance_threshold', T_REAL, SCALAR, LO_GT, HI_LE, 0.0_wp, 10.0_wp, &
-          CH_NONE, '', 're-balance when max/mean work exceeds 1 + this')]
+          CH_NONE, '', 're-balance when max/mean work exceeds 1 + this', &
+          doc='re-balance (at a neighbour-list rebuild) when max/mean work exceeds 1 + ' // &
+              'this')]
 
   !> &run: what to run and for how long.
   type :: run_params_t

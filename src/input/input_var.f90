@@ -1,7 +1,8 @@
 !> The description of one input variable, var_t: the one place that says
 !> what it is and what is allowed.  config keeps the rows of the generic
 !> groups; each case gives the rows of its own group (case_base).  The range
-!> checks, the comments of the written files and `--help` come from them.
+!> checks, the comments of the written files, `--help` and the tables of
+!> doc/input.md (`--input-tables`) come from them.
 module input_var
   use kinds, only: wp
   implicit none
@@ -26,7 +27,9 @@ module input_var
     real(wp) :: lo, hi
     integer :: choices           !< config's list of allowed words, CH_NONE if free
     character(len=60) :: rule    !< what is allowed when no range or list says it
-    character(len=110) :: help   !< what the variable is
+    character(len=110) :: help   !< what the variable is (--help, --defaults)
+    !> the documentation's fuller text (doc/input.md, markdown); help when empty
+    character(len=700) :: doc = ''
   end type var_t
 
 end module input_var
