@@ -371,6 +371,10 @@ contains
       if (allocated(err)) return
       pos = term + term_len
     end do
+    ! an empty file would silently run every default: surely not meant
+    if (all(first_line == 0)) call fail(err, path, 'holds no namelist group', 0, &
+      ': the file is empty or only comments; give at least &run case = ''circle2d'' / ' // &
+      '(./sph --defaults writes a complete file)')
   end subroutine read_file
 
   !> Reads the items of one group body (from the file) into cfg.
