@@ -14,11 +14,15 @@ module list_manager
   !> particles in the affine fits of the validity test: enough for F and V
   !> to a small fraction of the residual, at a cost independent of N
   integer(i8), parameter :: FIT_SAMPLE = 16384
+  !> the largest skin, in units of the kernel support
+  real(wp), parameter :: SKIN_CAP = 0.25_wp
 
   type :: list_manager_t
     type(neighbour_list_t) :: nl
     real(wp) :: skin_min = 0      !< smallest skin distance of the list (absolute)
     real(wp) :: skin = 0          !< skin of the current list
+    !> the time step the list stays valid for (list_check), huge if unbounded
+    real(wp) :: dt_valid = huge(1.0_wp)
     integer :: n_rebuilds = 0
     logical :: force_rebuild = .false.   !< rebuild at the next check
   end type list_manager_t
@@ -44,11 +48,15 @@ contains
   !> the list stays valid while
   !>   s0 (1 - tau |V|) - 2 tau w_max - 4 tau^2 a_max > support.
   !> A rebuild resets s0 to r_list and takes the skin that covers a few such
-  !> steps (at least skin_min).  The fits of F and V use sums that do not
-  !> depend on the decomposition, so every rank count rebuilds at the same
-  !> steps.  A rebuild is also due when lm%force_rebuild is set (after each
-  !> snapshot, so that a run restarted from it goes through the same list
-  !> history).  When due, the skin of the next build is set here.
+  !> steps (at least skin_min, at most SKIN_CAP support: a single particle
+  !> flung off at a large acceleration must not swell every particle's list);
+  !> lm%dt_valid is then the longest step the list covers, the largest
+  !> tau' <= tau with s0' (1 - tau' |V|) - 2 tau' w_max - 4 tau'^2 a_max >
+  !> support, which bounds the coming step.  The fits of F and V use sums
+  !> that do not depend on the decomposition, so every rank count rebuilds
+  !> at the same steps.  A rebuild is also due when lm%force_rebuild is set
+  !> (after each snapshot, so that a run restarted from it goes through the
+  !> same list history).  When due, the skin of the next build is set here.
   subroutine list_check(lm, env, dim, n, x, u, du, id, support, cfl_h, c0, rebuild)
     type(list_manager_t), intent(inout) :: lm
     type(parallel_env_t), intent(in) :: env
@@ -76,10 +84,26 @@ contains
     s0 = sigma_min(dim, f) * (support + lm%skin) - 2 * e_max
     rebuild = s0 * (1 - growth) - drift <= support .or. lm%force_rebuild
     if (rebuild) then
-      lm%skin = max(lm%skin_min, 2.2_wp * (support * growth + drift) / max(1 - growth, 0.5_wp))
+      lm%skin = max(lm%skin_min, min(SKIN_CAP * support, &
+                    2.2_wp * (support * growth + drift) / max(1 - growth, 0.5_wp)))
       lm%force_rebuild = .false.
+      s0 = support + lm%skin
     end if
+    lm%dt_valid = valid_step(s0 - support, s0 * growth / tau + 2 * w_max, 4 * amax, tau)
   end subroutine list_check
+
+  !> The largest t <= tau with c - b t - a t^2 > 0 (a, b >= 0, c > 0),
+  !> less a margin of 1e-6 relative; tau itself when it qualifies.
+  pure real(wp) function valid_step(c, b, a, tau) result(t)
+    real(wp), intent(in) :: c, b, a, tau
+    if (c - b * tau - a * tau**2 > 0) then
+      t = tau
+    else if (a > 0) then
+      t = (1 - 1e-6_wp) * 2 * c / (b + sqrt(b**2 + 4 * a * c))
+    else
+      t = (1 - 1e-6_wp) * c / b
+    end if
+  end function valid_step
 
   !> Builds the list of radius list_radius on the grid aligned on the
   !> global lower corner of the owned particles, which every rank computes

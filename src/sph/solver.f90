@@ -258,7 +258,8 @@ contains
     call solver_evaluate(s, env)
     s%first_stage = .false.
     call solver_time_step(s, env, dt)
-    dt = min(dt, dt_limit)
+    ! the list holds every pair that comes within the support up to dt_valid
+    dt = min(dt, dt_limit, s%lm%dt_valid)
 
     do stage = 1, integrator_stages(s%integ)
       if (stage > 1) call solver_evaluate(s, env)
