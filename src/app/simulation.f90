@@ -388,14 +388,14 @@ contains
   subroutine write_snapshot(cfg, env, s, run, t, step, ok)
     type(config_t), intent(in) :: cfg
     type(parallel_env_t), intent(in) :: env
-    type(solver_t), intent(in) :: s
+    type(solver_t), intent(inout) :: s
     type(run_t), intent(inout) :: run
     real(wp), intent(in) :: t
     integer, intent(in) :: step
     logical, intent(out) :: ok
     type(case_fields_t) :: f
     type(case_flow_t) :: flow
-    type(snapshot_field_t), allocatable :: extra(:)
+    type(snapshot_field_t), allocatable :: extra(:), fields(:)
     character(len=:), allocatable :: errmsg
     integer :: k, nv, ns
     ok = .true.
@@ -404,18 +404,22 @@ contains
       call run%problem%fields(t, s%parts, flow, f)
       nv = size(f%vector_names)
       ns = size(f%scalar_names)
+      ! each field held once at a time: the case's arrays are freed as they
+      ! are copied, the copies moved into the snapshot's list
       allocate(extra(nv + ns))
       do k = 1, nv
         extra(k)%name = trim(f%vector_names(k))
         extra(k)%v = f%vectors(:, :, k)
       end do
+      if (allocated(f%vectors)) deallocate(f%vectors)
       do k = 1, ns
         extra(nv + k)%name = trim(f%scalar_names(k))
         extra(nv + k)%s = f%scalars(:, k)
       end do
+      if (allocated(f%scalars)) deallocate(f%scalars)
+      call particles_snapshot_fields(s%parts, extra, fields)
       call snapshot_write(env%comm, join_path(run%dir, snapshot_filename(run%n_snapshots)), &
-                          t, step, s%parts%dim, trim(cfg%run%case_name), s%parts%n, &
-                          particles_snapshot_fields(s%parts, extra), &
+                          t, step, s%parts%dim, trim(cfg%run%case_name), s%parts%n, fields, &
                           ok, errmsg, attr_names=f%attr_names, attr_values=f%attr_values, &
                           index=run%xdmf)
       if (.not. ok) then

@@ -14,17 +14,19 @@ contains
 
   !> The registered snapshot fields of the owned particles, in table order
   !> (vectors with their 3 rows: the snapshot keeps the first dim), then
-  !> `extra`.
-  function particles_snapshot_fields(parts, extra) result(fields)
+  !> `extra`, whose arrays are moved, not copied (a snapshot of a million
+  !> particles holds one copy of each field at a time).
+  subroutine particles_snapshot_fields(parts, extra, fields)
     type(particles_t), intent(in), target :: parts
-    type(snapshot_field_t), intent(in) :: extra(:)
-    type(snapshot_field_t), allocatable :: fields(:)
+    type(snapshot_field_t), intent(inout) :: extra(:)
+    type(snapshot_field_t), allocatable, intent(out) :: fields(:)
     real(wp), pointer, contiguous :: a(:, :)
     integer(i8), pointer, contiguous :: ia(:)
-    integer :: j, f, n
+    integer :: j, f, n, m
     n = parts%n
-    allocate(fields(size(SNAPSHOT_FIELDS) + size(extra)))
-    do j = 1, size(SNAPSHOT_FIELDS)
+    m = size(SNAPSHOT_FIELDS)
+    allocate(fields(m + size(extra)))
+    do j = 1, m
       f = SNAPSHOT_FIELDS(j)
       fields(j)%name = trim(FIELD_TABLE(f)%name)
       if (FIELD_TABLE(f)%integer8) then
@@ -39,9 +41,12 @@ contains
       end if
     end do
     do j = 1, size(extra)
-      fields(size(SNAPSHOT_FIELDS) + j) = extra(j)
+      call move_alloc(extra(j)%name, fields(m + j)%name)
+      if (allocated(extra(j)%s)) call move_alloc(extra(j)%s, fields(m + j)%s)
+      if (allocated(extra(j)%v)) call move_alloc(extra(j)%v, fields(m + j)%v)
+      if (allocated(extra(j)%i)) call move_alloc(extra(j)%i, fields(m + j)%i)
     end do
-  end function particles_snapshot_fields
+  end subroutine particles_snapshot_fields
 
   !> This rank's rows of snapshot `snap` as owned particles of dimension
   !> dim, every registered restart field from its dataset; fails naming the

@@ -188,7 +188,7 @@ contains
   !> halo copies must be current (solver_sync_halo) and the list valid at
   !> the positions (it is at the end of a step).  omega is empty in 3D.
   subroutine solver_flow_fields(s, lambda, omega)
-    type(solver_t), intent(in) :: s
+    type(solver_t), intent(inout) :: s     !< its work arrays serve as scratch
     real(wp), allocatable, intent(out) :: lambda(:), omega(:)
     real(wp), allocatable :: lam(:), g(:, :)
     integer :: n, ntot
@@ -198,13 +198,13 @@ contains
     associate(pt => s%parts)
       if (pt%dim == 2) then
         call rhs_renormalisation(s%rhs, n, ntot, pt%x, pt%rho, pt%m, s%lm%nl, lam, &
-                                 grad_rho=g, phi=pt%u(2, 1:ntot))
+                                 grad_rho=g, work=s%rw, phi=pt%u(2, 1:ntot))
         omega = g(1, 1:n)
         call rhs_renormalisation(s%rhs, n, ntot, pt%x, pt%rho, pt%m, s%lm%nl, lam, &
-                                 grad_rho=g, phi=pt%u(1, 1:ntot))
+                                 grad_rho=g, work=s%rw, phi=pt%u(1, 1:ntot))
         omega = omega - g(2, 1:n)
       else
-        call rhs_renormalisation(s%rhs, n, ntot, pt%x, pt%rho, pt%m, s%lm%nl, lam)
+        call rhs_renormalisation(s%rhs, n, ntot, pt%x, pt%rho, pt%m, s%lm%nl, lam, work=s%rw)
         allocate(omega(0))
       end if
     end associate
