@@ -18,6 +18,7 @@ module config
                         unquoted, value_is_bare, base_name, word_at, name_end_at, lower, pad, &
                         int_str, num_str, real_list, real_str
   use namelist_scan, only: load_text, find_group_end, split_items
+  use input_tables, only: TABLE_HEADER, table_row, lo_op, hi_op
   use input_var, only: var_t, T_INT, T_REAL, T_STRING, T_LOGICAL, LO_NONE, LO_GT, LO_GE, &
                        HI_NONE, HI_LT, HI_LE, CH_NONE
   use input_params, only: run_params_t, particles_params_t, physics_params_t, &
@@ -187,92 +188,33 @@ contains
   end subroutine config_write_help
 
   !> Writes the tables of doc/input.md (markdown), for each group a line
-  !> `&group` and the table of its variables: name, type, default, what is
-  !> allowed and what it means, all from the variables' rows (var_t).
+  !> `&group` and the table of its variables (input_tables: table_row).
   subroutine config_write_input_tables(unit)
     integer, intent(in) :: unit
-    character(len=*), parameter :: TYPES(4) = [character(len=7) :: 'integer', 'real', &
-                                                'string', 'logical']
     type(group_t), allocatable :: groups(:)
     type(var_t), allocatable :: vars(:)
     type(config_t) :: defaults
-    character(len=:), allocatable :: text, typ, meaning
+    character(len=:), allocatable :: text
+    character(len=NAME_LEN), allocatable :: words(:)
     real(wp) :: x
     integer :: g, k
     call list_groups(groups)
     call list_vars(vars)
     defaults = config_defaults()
     do g = 1, size(groups)
-      write(unit, '(a)') '&' // trim(groups(g)%name), &
-        '| variable | type | default | allowed | meaning |', '|---|---|---|---|---|'
+      write(unit, '(a)') '&' // trim(groups(g)%name), (trim(TABLE_HEADER(k)), k = 1, 2)
       do k = 1, size(vars)
         if (vars(k)%group /= g) cycle
-        associate(v => vars(k))
-          typ = trim(TYPES(v%type))
-          if (v%dims(2) > 0) then
-            typ = typ // '(' // int_str(v%dims(1)) // ',' // int_str(v%dims(2)) // ')'
-            text = 'all `0.0`'
-          else
-            if (v%dims(1) > 0) typ = typ // '(' // int_str(v%dims(1)) // ')'
-            call get_value(defaults, v, text, x)
-            text = '`' // text // '`'
-          end if
-          meaning = trim(v%doc)
-          if (len(meaning) == 0) meaning = trim(v%help)
-          write(unit, '(a)') '| `' // trim(v%name) // '` | ' // typ // ' | ' // text // &
-            ' | ' // md_cell(allowed_markdown(v)) // ' | ' // md_cell(meaning) // ' |'
-        end associate
+        text = ''
+        if (vars(k)%dims(2) == 0) call get_value(defaults, vars(k), text, x)
+        allocate(words(0))
+        if (vars(k)%choices /= CH_NONE) words = choice_list(vars(k)%choices)
+        write(unit, '(a)') table_row(vars(k), text, words)
+        deallocate(words)
       end do
       write(unit, '(a)') ''
     end do
   end subroutine config_write_input_tables
-
-  !> s with every | escaped, for a markdown table cell.
-  function md_cell(s) result(t)
-    character(len=*), intent(in) :: s
-    character(len=:), allocatable :: t
-    integer :: k
-    t = ''
-    do k = 1, len(s)
-      if (s(k:k) == '|') t = t // '\'
-      t = t // s(k:k)
-    end do
-  end function md_cell
-
-  !> What is allowed for v, as doc/input.md writes it: the words, the range
-  !> (lo .. hi when both ends are included), then the rule, if any.
-  function allowed_markdown(v) result(s)
-    type(var_t), intent(in) :: v
-    character(len=:), allocatable :: s
-    character(len=:), allocatable :: name
-    character(len=32), allocatable :: words(:)
-    integer :: k
-    name = trim(v%name)
-    s = ''
-    if (v%choices /= CH_NONE) then
-      words = choice_list(v%choices)
-      do k = 1, size(words)
-        if (k > 1) s = s // ', '
-        s = s // "`'" // trim(words(k)) // "'`"
-      end do
-    else if (v%lo_rule == LO_GE .and. v%hi_rule == HI_LE) then
-      s = num_str(v%lo) // ' .. ' // num_str(v%hi)
-    else if (v%lo_rule /= LO_NONE .and. v%hi_rule /= HI_NONE) then
-      s = num_str(v%lo) // lo_op(v%lo_rule) // name // hi_op(v%hi_rule) // num_str(v%hi)
-    else if (v%lo_rule /= LO_NONE) then
-      s = merge('> ', '>=', v%lo_rule == LO_GT)
-      s = trim(s) // ' ' // num_str(v%lo)
-    else if (v%hi_rule /= HI_NONE) then
-      s = merge('< ', '<=', v%hi_rule == HI_LT)
-      s = trim(s) // ' ' // num_str(v%hi)
-    else if (v%type == T_LOGICAL) then
-      s = '`.true.`, `.false.`'
-    end if
-    if (len_trim(v%rule) > 0) then
-      if (len(s) > 0) s = s // ', '
-      s = s // trim(v%rule)
-    end if
-  end function allowed_markdown
 
   !> The dimension of the selected case (2 or 3), 0 if the case is unknown.
   integer function config_dim(cfg)
@@ -934,20 +876,6 @@ contains
       s = trim(v%rule)
     end if
   end function allowed_text
-
-  function lo_op(rule) result(s)
-    integer, intent(in) :: rule
-    character(len=:), allocatable :: s
-    s = ' <= '
-    if (rule == LO_GT) s = ' < '
-  end function lo_op
-
-  function hi_op(rule) result(s)
-    integer, intent(in) :: rule
-    character(len=:), allocatable :: s
-    s = ' <= '
-    if (rule == HI_LT) s = ' < '
-  end function hi_op
 
   !> The default of v as text (for hints).
   function default_text(v) result(s)
