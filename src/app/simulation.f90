@@ -499,8 +499,9 @@ contains
       '  packed in ', run%pack_report%iterations, ' iterations, ', run%pack_report%wall, &
       ' s (', run%pack_report%rebuilds, ' list builds, last move ', &
       run%pack_report%last_move, ' dx, ', run%pack_report%clipped, ' moves clipped)'
-    write(output_unit, '(a,es10.3,a,es10.3,a,es10.3,a,es10.3,a)') '  dt ', dt, &
-      ' = min(acoustic ', s%dt_cfl, ', force ', s%dt_force, ', viscous ', s%dt_visc, ')'
+    write(output_unit, '(a,es10.3,a,es10.3,a,es10.3,a,es10.3,a,es10.3,a)') '  dt ', dt, &
+      ' = min(acoustic ', s%dt_cfl, ', force ', s%dt_force, ', viscous ', s%dt_visc, &
+      ', diffusive ', s%dt_diff, ')'
     write(output_unit, '(a,f10.4,a,i0,a)') '  end time ', cfg%run%t_end, ', about ', &
       nint(cfg%run%t_end / dt), ' steps'
     flush(output_unit)

@@ -11,7 +11,7 @@ module solver
   use list_manager, only: list_manager_t, list_radius, list_check, list_build, list_pair_work
   use eos, only: eos_t, eos_pressure
   use fluid_rhs, only: rhs_params_t, rhs_work_t, rhs_renormalisation, rhs_evaluate, rhs_shift, &
-                       DIFF_ANTUONO, VISC_NONE, PGRAD_HIGHER_ORDER, DIV_RENORMALISED
+                       DIFF_ANTUONO, DIFF_NONE, VISC_NONE, PGRAD_HIGHER_ORDER, DIV_RENORMALISED
   use parallel_env, only: parallel_env_t, par_max
   use decomposition, only: decomposition_t, decomp_redistribute, decomp_halo_build, &
                            decomp_refresh, decomp_refresh_field, decomp_measure, BALANCE_PAIRS
@@ -20,6 +20,12 @@ module solver
   private
   public :: solver_t, solver_init, solver_step, solver_evaluate, solver_rebuild, solver_flow_fields, &
             solver_time_step, solver_sync_halo
+
+  !> (T3) the diffusive limit dt <= CFL_DIFF h/(delta c0), below the measured
+  !> onset of instability (delta c0 dt/h: stable at 0.33, unstable at 0.45
+  !> in 2D; 0.50 and 0.62 in 3D; RK4, Wendland C2); never binding at the
+  !> defaults (delta = 0.1 allows 3 h/c0, the largest acoustic step)
+  real(wp), parameter :: CFL_DIFF = 0.3_wp
 
   type :: solver_t
     type(particles_t) :: parts
@@ -46,7 +52,7 @@ module solver
     real(wp) :: shift_max = 0
     integer :: n_evaluations = 0
     real(wp) :: umax = 0, amax = 0     !< global maxima at the start of the last step
-    real(wp) :: dt_cfl = 0, dt_force = 0, dt_visc = 0  !< the limits of the last step
+    real(wp) :: dt_cfl = 0, dt_force = 0, dt_visc = 0, dt_diff = 0  !< the limits of the last step
     !> L_i and lambda_i of the first pass at the first stage of a step only,
     !> kept for its other stages (numerics.renormalise = 'step'); without
     !> the Antuono diffusion, whose density gradient changes with rho
@@ -211,8 +217,8 @@ contains
     lambda = lam(1:n)
   end subroutine solver_flow_fields
 
-  !> (T3) dt = min(cfl h/(c0 + Umax), cfl_force sqrt(h/max|a|), cfl_visc h^2/nu)
-  !> from the velocities and the accelerations in s%du.
+  !> (T3) dt = min(cfl h/(c0 + Umax), cfl_force sqrt(h/max|a|), cfl_visc h^2/nu,
+  !> CFL_DIFF h/(delta c0)) from the velocities and the accelerations in s%du.
   subroutine solver_time_step(s, env, dt)
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
@@ -234,7 +240,11 @@ contains
     if (s%amax > 0) s%dt_force = s%cfl_force * sqrt(h / s%amax)
     s%dt_visc = huge(1.0_wp)
     if (s%nu > 0) s%dt_visc = s%cfl_visc * h**2 / s%nu
-    dt = min(s%dt_cfl, s%dt_force, s%dt_visc)
+    ! the density diffusion (E2) is explicit too
+    s%dt_diff = huge(1.0_wp)
+    if (s%rhs%diffusion /= DIFF_NONE .and. s%rhs%delta > 0) &
+      s%dt_diff = CFL_DIFF * h / (s%rhs%delta * s%rhs%c0)
+    dt = min(s%dt_cfl, s%dt_force, s%dt_visc, s%dt_diff)
   end subroutine solver_time_step
 
   !> Advances the state by one step of at most dt_limit; returns the dt taken:
