@@ -18,7 +18,7 @@ module config
                         unquoted, value_is_bare, base_name, word_at, name_end_at, lower, pad, &
                         int_str, num_str, real_list, real_str
   use namelist_scan, only: load_text, find_group_end, split_items
-  use input_tables, only: TABLE_HEADER, table_row, lo_op, hi_op
+  use input_tables, only: TABLE_HEADER, table_row, range_text
   use input_var, only: var_t, T_INT, T_REAL, T_STRING, T_LOGICAL, LO_NONE, LO_GT, LO_GE, &
                        HI_NONE, HI_LT, HI_LE, CH_NONE
   use input_params, only: run_params_t, particles_params_t, physics_params_t, &
@@ -858,18 +858,10 @@ contains
   function allowed_text(v) result(s)
     type(var_t), intent(in) :: v
     character(len=:), allocatable :: s
-    character(len=:), allocatable :: name
-    name = trim(v%name)
     if (v%choices /= CH_NONE) then
       s = 'one of ' // allowed_words(choice_list(v%choices))
-    else if (v%lo_rule /= LO_NONE .and. v%hi_rule /= HI_NONE) then
-      s = num_str(v%lo) // lo_op(v%lo_rule) // name // hi_op(v%hi_rule) // num_str(v%hi)
-    else if (v%lo_rule /= LO_NONE) then
-      ! "x > lo" reads better than "lo < x"
-      s = name // ' >= ' // num_str(v%lo)
-      if (v%lo_rule == LO_GT) s = name // ' > ' // num_str(v%lo)
-    else if (v%hi_rule /= HI_NONE) then
-      s = name // hi_op(v%hi_rule) // num_str(v%hi)
+    else if (v%lo_rule /= LO_NONE .or. v%hi_rule /= HI_NONE) then
+      s = range_text(v)
     else if (v%type == T_LOGICAL) then
       s = '.true. or .false.'
     else

@@ -2,11 +2,11 @@
 !> from its description (var_t) alone, so that the documentation is the
 !> program's (config_write_input_tables writes them; `make input-doc`).
 module input_tables
-  use input_var, only: var_t, T_LOGICAL, LO_NONE, LO_GT, LO_GE, HI_NONE, HI_LT, HI_LE, CH_NONE
+  use input_var, only: var_t, T_LOGICAL, LO_NONE, LO_GT, LO_GE, HI_NONE, HI_LT, CH_NONE
   use input_text, only: num_str, int_str
   implicit none
   private
-  public :: TABLE_HEADER, table_row, lo_op, hi_op
+  public :: TABLE_HEADER, table_row, range_text
 
   character(len=*), parameter :: TABLE_HEADER(2) = [character(len=49) :: &
     '| variable | type | default | allowed | meaning |', '|---|---|---|---|---|']
@@ -38,7 +38,7 @@ contains
   end function table_row
 
   !> What is allowed for v, as doc/input.md writes it: the words, the range
-  !> (lo .. hi when both ends are included), then the rule, if any.
+  !> (range_text, as the messages say it), then the rule, if any.
   function allowed(v, words) result(s)
     type(var_t), intent(in) :: v
     character(len=*), intent(in) :: words(:)
@@ -50,16 +50,8 @@ contains
         if (k > 1) s = s // ', '
         s = s // "`'" // trim(words(k)) // "'`"
       end do
-    else if (v%lo_rule == LO_GE .and. v%hi_rule == HI_LE) then
-      s = num_str(v%lo) // ' .. ' // num_str(v%hi)
-    else if (v%lo_rule /= LO_NONE .and. v%hi_rule /= HI_NONE) then
-      s = num_str(v%lo) // lo_op(v%lo_rule) // trim(v%name) // hi_op(v%hi_rule) // num_str(v%hi)
-    else if (v%lo_rule /= LO_NONE) then
-      s = merge('> ', '>=', v%lo_rule == LO_GT)
-      s = trim(s) // ' ' // num_str(v%lo)
-    else if (v%hi_rule /= HI_NONE) then
-      s = merge('< ', '<=', v%hi_rule == HI_LT)
-      s = trim(s) // ' ' // num_str(v%hi)
+    else if (v%lo_rule /= LO_NONE .or. v%hi_rule /= HI_NONE) then
+      s = range_text(v)
     else if (v%type == T_LOGICAL) then
       s = '`.true.`, `.false.`'
     end if
@@ -81,20 +73,33 @@ contains
     end do
   end function md_cell
 
-  !> ' < ' or ' <= ' for a lower bound rule (LO_GT, LO_GE).
-  function lo_op(rule) result(s)
-    integer, intent(in) :: rule
+  !> The range of v as --help and the messages say it: lo < name <= hi,
+  !> name >= lo, name < hi, ...; '' for a variable without bounds.
+  function range_text(v) result(s)
+    type(var_t), intent(in) :: v
     character(len=:), allocatable :: s
-    s = ' <= '
-    if (rule == LO_GT) s = ' < '
-  end function lo_op
+    character(len=:), allocatable :: name
+    name = trim(v%name)
+    if (v%lo_rule /= LO_NONE .and. v%hi_rule /= HI_NONE) then
+      s = num_str(v%lo) // below(v%lo_rule == LO_GT) // name // below(v%hi_rule == HI_LT) // &
+          num_str(v%hi)
+    else if (v%lo_rule == LO_GT) then
+      s = name // ' > ' // num_str(v%lo)
+    else if (v%lo_rule == LO_GE) then
+      s = name // ' >= ' // num_str(v%lo)
+    else if (v%hi_rule /= HI_NONE) then
+      s = name // below(v%hi_rule == HI_LT) // num_str(v%hi)
+    else
+      s = ''
+    end if
+  end function range_text
 
-  !> ' < ' or ' <= ' for an upper bound rule (HI_LT, HI_LE).
-  function hi_op(rule) result(s)
-    integer, intent(in) :: rule
+  !> ' < ' when strict, else ' <= '.
+  function below(strict) result(s)
+    logical, intent(in) :: strict
     character(len=:), allocatable :: s
     s = ' <= '
-    if (rule == HI_LT) s = ' < '
-  end function hi_op
+    if (strict) s = ' < '
+  end function below
 
 end module input_tables
