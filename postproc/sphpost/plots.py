@@ -80,18 +80,25 @@ def pressure_panel(ax, run, fc, tw, label=None, raw=True, reference=None, color=
     return np.nanmax(np.abs(p / c.p_unit))
 
 
-def fig_circle(args):
-    import numpy as np
-    plt = sp.use_agg()
-    from matplotlib.patches import Ellipse
+def first_and_last(args, case, what):
+    """The run of args.run_dir, which must be of `case` with at least two
+    snapshots (for the plot `what`): the run, its filter's cut-off and
+    transition, and its first and last snapshots."""
     run = sp.Run(args.run_dir)
     c = run.case
-    if c.name != "circle2d":
-        raise sp.PostprocError(f"'circle' plots a circle2d run; {run.path} is {c.name}")
+    if c.name != case:
+        raise sp.PostprocError(f"'{what}' plots {case} runs; {run.path} is {c.name}")
     if len(run.snapshots) < 2:
         raise sp.PostprocError(f"{run.path} needs at least two snapshots (t = 0 and the end)")
-    fc, tw, how = sp.filter_from_args(c, args)
-    s0, s1 = run.snapshot(0), run.snapshot(-1)
+    fc, tw, _ = sp.filter_from_args(c, args)
+    return run, fc, tw, run.snapshot(0), run.snapshot(-1)
+
+
+def fig_circle(args):
+    plt = sp.use_agg()
+    from matplotlib.patches import Ellipse
+    run, fc, tw, s0, s1 = first_and_last(args, "circle2d", "circle")
+    c = run.case
     t1 = s1["attrs"]["time"]
     fig = plt.figure(figsize=(13.5, 6.4))
     gs = fig.add_gridspec(1, 3, width_ratios=[1.5, 0.8, 2.1], wspace=0.42,
@@ -143,14 +150,8 @@ def fig_ellipsoid(args):
     import numpy as np
     plt = sp.use_agg()
     from matplotlib.patches import Ellipse
-    run = sp.Run(args.run_dir)
+    run, fc, tw, s0, s1 = first_and_last(args, "ellipsoid3d", "ellipsoid")
     c = run.case
-    if c.name != "ellipsoid3d":
-        raise sp.PostprocError(f"'ellipsoid' plots an ellipsoid3d run; {run.path} is {c.name}")
-    if len(run.snapshots) < 2:
-        raise sp.PostprocError(f"{run.path} needs at least two snapshots (t = 0 and the end)")
-    fc, tw, _ = sp.filter_from_args(c, args)
-    s0, s1 = run.snapshot(0), run.snapshot(-1)
     fig = plt.figure(figsize=(13, 9))
     gs = fig.add_gridspec(2, 3, width_ratios=[1, 1, 0.8], height_ratios=[1.35, 1])
     th = np.linspace(0, 2 * np.pi, 200)
