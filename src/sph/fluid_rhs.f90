@@ -123,16 +123,15 @@ contains
   !> density gradient (E2, E3) G_i = L_i Sum_j (rho_j - rho_i) g V_j
   !> (rhs_renormalisation).  Halo values are zero: they come from their
   !> owners by an exchange.
-  subroutine rhs_density_gradient(prm, n, ntot, x, rho, m, nl, grad_rho, work)
+  subroutine rhs_density_gradient(prm, n, ntot, x, rho, m, nl, grad_rho)
     type(rhs_params_t), intent(in) :: prm
     integer, intent(in) :: n, ntot
     real(wp), intent(in) :: x(3, ntot), rho(ntot), m(ntot)
     type(neighbour_list_t), intent(in) :: nl
     real(wp), intent(out) :: grad_rho(3, ntot)
-    type(rhs_work_t), intent(inout), optional :: work
     real(wp), allocatable :: lambda(:)
     allocate(lambda(ntot))
-    call rhs_renormalisation(prm, n, ntot, x, rho, m, nl, lambda, grad_rho=grad_rho, work=work)
+    call rhs_renormalisation(prm, n, ntot, x, rho, m, nl, lambda, grad_rho=grad_rho)
   end subroutine rhs_density_gradient
 
   !> The free-surface indicator (E9) of the n owned particles, and
