@@ -15,8 +15,8 @@ module simulation
                        DIFF_ANTUONO, PGRAD_STANDARD, PGRAD_HIGHER_ORDER, DIV_STANDARD, &
                        DIV_RENORMALISED
   use solver, only: solver_t, solver_init, solver_step, solver_evaluate, solver_time_step, &
-                    solver_flow_fields, &
-                    solver_sync_halo
+                    solver_flow_fields, solver_sync_halo, step_history_t, solver_history, &
+                    solver_restore
   use decomposition, only: BALANCE_PARTICLES, BALANCE_PAIRS
   use integrators, only: SCHEME_RK4, SCHEME_PC2
   use diagnostics, only: kinetic_energy, total_mass, total_momentum, probe_pressure, &
@@ -29,13 +29,20 @@ module simulation
   use particle_io, only: particles_snapshot_fields
   use timeseries, only: timeseries_t, timeseries_init, timeseries_add, timeseries_flush, &
                         timeseries_load
-  use restart, only: restart_read, restart_index_history, snapshot_number
+  use restart, only: restart_read, restart_index_history, snapshot_number, restart_info_t, &
+                     ATTR_ACCEL_MAX, ATTR_LIST_SKIN, ATTR_FORCE_REBUILD, ATTR_SNAPSHOTS
+  use signals, only: signals_install, signals_caught, signal_name
   use domain, only: DECOMP_SLAB, DECOMP_METIS
   use packing, only: packing_params_t, packing_report_t, pack_ball
   use placement, only: packed_volume
   implicit none
   private
-  public :: simulation_run
+  public :: simulation_run, EXIT_CHECKPOINT
+
+  !> The exit code of a run stopped early with a checkpoint (a signal or
+  !> run.wall_limit): sysexits' EX_TEMPFAIL, "try again", for job scripts
+  integer, parameter :: EXIT_CHECKPOINT = 75
+  character(len=*), parameter :: CHECKPOINT_FILE = 'checkpoint.h5'
 
   !> Everything one run carries besides the solver.
   type :: run_t
@@ -56,7 +63,8 @@ module simulation
 contains
 
   !> Runs the case described by cfg; status is the process exit code
-  !> (0 success, 1 a failure during the run).
+  !> (0 success, 1 a failure during the run, 2 an input refused before
+  !> anything was written, EXIT_CHECKPOINT stopped early with a checkpoint).
   subroutine simulation_run(cfg_in, env, status)
     !> the input as given; the run uses it with the resolution scaling applied
     type(config_t), intent(in) :: cfg_in
@@ -65,12 +73,18 @@ contains
     type(solver_t) :: s
     type(run_t) :: run
     real(wp) :: t, dt, dx, t_next_out, wall0, wall_last, dt_est, t_end, tol, t0_run
-    integer :: step, dim, i_bad, k_out, step0
+    real(wp) :: wall_start, wall_iter, iter_max, write_max, w
+    integer :: step, dim, i_bad, k_out, step0, signum
     logical :: ok, done, snap_now, restarting, have_series
-    character(len=:), allocatable :: errmsg
+    character(len=:), allocatable :: errmsg, reason
     type(config_t) :: cfg
+    type(restart_info_t) :: info
+    type(step_history_t) :: history
 
     status = 0
+    wall_start = wall_time()
+    write_max = 0      ! the longest snapshot write (or restart read) so far
+    call signals_install()
     cfg = config_scaled(cfg_in)
     dim = config_dim(cfg)
     t_end = cfg%run%t_end
@@ -86,8 +100,10 @@ contains
     if (restarting) then
       ! the snapshot's particles replace the initial ones; nothing is
       ! written before it has been read and checked
+      w = wall_time()
       call restart_read(env, trim(cfg%run%restart), trim(cfg%run%case_name), dim, s%parts, &
-                        t, step, ok, errmsg)
+                        t, step, ok, errmsg, info)
+      write_max = wall_time() - w
       if (ok .and. t >= t_end - tol) then
         ok = .false.
         write(errmsg, '(a,es12.5,a,es12.5,a)') '&run restart: the snapshot is at t = ', t, &
@@ -98,8 +114,15 @@ contains
         return
       end if
       run%n_snapshots = max(0, snapshot_number(trim(cfg%run%restart)) + 1)
+      if (info%checkpoint) run%n_snapshots = max(0, info%snapshots_written)
+      history%skin = info%list_skin
+      history%force_rebuild = info%force_rebuild
     end if
-    call solver_init(s, env)
+    if (restarting .and. info%checkpoint) then
+      call solver_init(s, env, resume=history)
+    else
+      call solver_init(s, env)
+    end if
     run%n_global = nint(par_sum(env, real(s%parts%n, wp)), i8)
 
     ! output directory, the echoed input, the time series and the index
@@ -135,15 +158,22 @@ contains
     call solver_time_step(s, env, dt_est)
     call print_start(cfg, env, s, run, dx, dt_est)
     if (restarting) then
+      ! the largest acceleration of the step before (that of the evaluation
+      ! just made when the file does not say it)
+      history%a_max = s%a_local
+      if (info%has_accel) history%a_max = info%accel_max
+      call solver_restore(s, history)
       if (env%rank == 0) write(output_unit, '(a,es12.5,a,i0,a)') '  restarted from ' // &
         trim(cfg%run%restart) // ' at t = ', t, ', step ', step, ''
     else
       call sample(run, env, s, t, step, 0.0_wp)
+      w = wall_time()
       call write_snapshot(cfg, env, s, run, t, step, ok)
       if (.not. ok) then
         status = 1
         return
       end if
+      write_max = wall_time() - w
     end if
     ! output times are k output.dt (a product, not a running sum, so a
     ! restarted run finds the same ones)
@@ -153,9 +183,11 @@ contains
     wall_last = wall0
     t0_run = t
     step0 = step
+    iter_max = 0
     done = t >= t_end - tol .or. (cfg%run%max_steps > 0 .and. step >= cfg%run%max_steps)
 
     do while (.not. done)
+      wall_iter = wall_time()
       call solver_step(s, env, min(t_next_out, t_end) - t, dt)
       step = step + 1
       ! the last step lands on the output time exactly (dt was clipped to it)
@@ -184,11 +216,13 @@ contains
         ! case fields (e.g. vorticity) may use the halo copies: bring them
         ! to the end of the step
         call solver_sync_halo(s, env)
+        w = wall_time()
         call write_snapshot(cfg, env, s, run, t, step, ok)
         if (.not. ok) then
           status = 1
           return
         end if
+        write_max = max(write_max, wall_time() - w)
         ! a run restarted from this snapshot starts with a fresh list: so
         ! does this one, and both go on identically
         s%lm%force_rebuild = .true.
@@ -196,6 +230,28 @@ contains
       if (wall_time() - wall_last >= cfg%run%progress_interval .or. done) then
         wall_last = wall_time()
         call print_progress(env, step, t, dt, t0_run, t_end, wall_last - wall0, s%dc%imbalance)
+      end if
+      iter_max = max(iter_max, wall_time() - wall_iter)
+
+      ! a stop requested by a signal, or the wall-clock limit reached before
+      ! the next step and a checkpoint could be done (2x the longest so far)
+      if (.not. done) then
+        signum = signals_caught()
+        w = wall_time()
+        ok = cfg%run%wall_limit <= 0 .or. &
+             w - wall_start + 2 * (iter_max + write_max) < cfg%run%wall_limit
+        if (par_any(env, signum /= 0 .or. .not. ok)) then
+          signum = nint(par_max(env, real(signum, wp)))
+          reason = 'run.wall_limit'
+          if (signum /= 0) reason = signal_name(signum)
+          call write_checkpoint(env, s, run, t, step, ok)
+          status = 1
+          if (ok) then
+            call print_stopped(env, reason, run%dir, step, t)
+            status = EXIT_CHECKPOINT
+          end if
+          return
+        end if
       end if
     end do
 
@@ -397,9 +453,14 @@ contains
     type(case_flow_t) :: flow
     type(snapshot_field_t), allocatable :: extra(:), fields(:)
     character(len=:), allocatable :: errmsg
+    character(len=32), allocatable :: names(:)
+    real(wp), allocatable :: values(:)
     integer :: k, nv, ns
     ok = .true.
     if (cfg%output%snapshots) then
+      ! the step history a restart from this snapshot needs (restart.f90)
+      names = [character(len=32) :: ATTR_ACCEL_MAX]
+      values = [par_max(env, s%a_local)]
       call solver_flow_fields(s, flow%lambda, flow%omega)
       call run%problem%fields(t, s%parts, flow, f)
       nv = size(f%vector_names)
@@ -418,10 +479,13 @@ contains
       end do
       if (allocated(f%scalars)) deallocate(f%scalars)
       call particles_snapshot_fields(s%parts, extra, fields)
+      if (allocated(f%attr_names)) then
+        names = [f%attr_names, names]
+        values = [f%attr_values, values]
+      end if
       call snapshot_write(env%comm, join_path(run%dir, snapshot_filename(run%n_snapshots)), &
                           t, step, s%parts%dim, trim(cfg%run%case_name), s%parts%n, fields, &
-                          ok, errmsg, attr_names=f%attr_names, attr_values=f%attr_values, &
-                          index=run%xdmf)
+                          ok, errmsg, attr_names=names, attr_values=values, index=run%xdmf)
       if (.not. ok) then
         if (env%rank == 0) write(error_unit, '(a)') 'sph: error: ' // errmsg
         return
@@ -431,6 +495,86 @@ contains
     call timeseries_flush(run%ts, ok, errmsg)
     if (.not. ok .and. env%rank == 0) write(error_unit, '(a)') 'sph: error: ' // errmsg
   end subroutine write_snapshot
+
+  !> The checkpoint of a run stopped early, output.dir/checkpoint.h5: the
+  !> registered snapshot and checkpoint fields (the reference positions of
+  !> the neighbour list among them) and the step history (solver:
+  !> step_history_t), from which a restart goes on exactly as the run would
+  !> have; it is not in the XDMF index.  The time series is flushed too.
+  subroutine write_checkpoint(env, s, run, t, step, ok)
+    type(parallel_env_t), intent(in) :: env
+    type(solver_t), intent(in) :: s
+    type(run_t), intent(inout) :: run
+    real(wp), intent(in) :: t
+    integer, intent(in) :: step
+    logical, intent(out) :: ok
+    type(snapshot_field_t), allocatable :: extra(:), fields(:)
+    type(step_history_t) :: h
+    character(len=:), allocatable :: errmsg
+    h = solver_history(s, env)
+    allocate(extra(0))
+    call particles_snapshot_fields(s%parts, extra, fields, checkpoint=.true.)
+    call snapshot_write(env%comm, join_path(run%dir, CHECKPOINT_FILE), t, step, s%parts%dim, &
+                        trim(run%problem%name), s%parts%n, fields, ok, errmsg, &
+                        attr_names=[character(len=32) :: ATTR_ACCEL_MAX, ATTR_LIST_SKIN, &
+                                    ATTR_FORCE_REBUILD, ATTR_SNAPSHOTS], &
+                        attr_values=[h%a_max, h%skin, merge(1.0_wp, 0.0_wp, h%force_rebuild), &
+                                     real(run%n_snapshots, wp)])
+    if (ok) call timeseries_flush(run%ts, ok, errmsg)
+    if (.not. ok .and. env%rank == 0) write(error_unit, '(a)') 'sph: error: ' // errmsg
+  end subroutine write_checkpoint
+
+  !> Says why the run stopped, where its checkpoint is and the command that
+  !> continues it: this process's own arguments (any run.restart replaced)
+  !> under mpirun with the same number of ranks (any other works too).
+  subroutine print_stopped(env, reason, dir, step, t)
+    type(parallel_env_t), intent(in) :: env
+    character(len=*), intent(in) :: reason, dir
+    integer, intent(in) :: step
+    real(wp), intent(in) :: t
+    character(len=:), allocatable :: cmd, arg, path
+    character(len=16) :: np
+    integer :: k, length
+    if (env%rank /= 0) return
+    path = join_path(dir, CHECKPOINT_FILE)
+    write(np, '(i0)') env%nranks
+    cmd = 'mpirun -np ' // trim(np)
+    do k = 0, command_argument_count()
+      call get_command_argument(k, length=length)
+      allocate(character(len=length) :: arg)
+      call get_command_argument(k, arg)
+      if (index(arg, 'run.restart=') /= 1) cmd = cmd // ' ' // shell_quoted(arg)
+      deallocate(arg)
+    end do
+    cmd = cmd // ' ' // shell_quoted('run.restart=' // path)
+    write(output_unit, '(a,i0,a,es12.5,a)') 'sph: stopped by ' // reason // ' after step ', &
+      step, ' (t = ', t, '); checkpoint written to ' // path
+    write(output_unit, '(a)') '  continue with: ' // cmd
+    flush(output_unit)
+  end subroutine print_stopped
+
+  !> word as one shell word: as it is when it is made of safe characters,
+  !> else in single quotes (a quote inside written '\'').
+  function shell_quoted(word) result(q)
+    character(len=*), intent(in) :: word
+    character(len=:), allocatable :: q
+    character(len=*), parameter :: SAFE = 'abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ' // &
+                                          '0123456789_./=:,+-@%'
+    integer :: k
+    if (len(word) > 0 .and. verify(word, SAFE) == 0) then
+      q = word
+      return
+    end if
+    q = "'"
+    do k = 1, len(word)
+      if (word(k:k) == "'") then
+        q = q // "'\''"
+      else
+        q = q // word(k:k)
+      end if
+    end do
+    q = q // "'"
+  end function shell_quoted
 
   !> Writes the effective configuration beside the outputs (atomically).
   subroutine echo_input(cfg, path, ok, errmsg)

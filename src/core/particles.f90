@@ -7,7 +7,7 @@
 module particles
   use kinds, only: wp, i8
   use particle_fields, only: FIELD_TABLE, N_FIELDS, FIELD_X, FIELD_U, FIELD_RHO, FIELD_P, &
-                             FIELD_M, FIELD_ID, FIELD_X0
+                             FIELD_M, FIELD_ID, FIELD_X0, FIELD_XREF
   implicit none
   private
   public :: particles_t, particles_allocate, particles_permute, particles_reserve
@@ -23,6 +23,8 @@ module particles
     real(wp), allocatable :: p(:)     !< pressure, from rho by the equation of state
     real(wp), allocatable :: m(:)     !< mass
     real(wp), allocatable :: x0(:, :) !< initial position (Lagrangian label)
+    !> position at the last neighbour-list build (list_check's reference)
+    real(wp), allocatable :: xref(:, :)
     integer(i8), allocatable :: id(:) !< global id, 1..N
   end type particles_t
 
@@ -34,8 +36,9 @@ contains
     integer, intent(in) :: dim, capacity
     parts%dim = dim
     allocate(parts%x(3, capacity), parts%u(3, capacity), parts%rho(capacity), &
-             parts%p(capacity), parts%m(capacity), parts%x0(3, capacity), parts%id(capacity))
-    parts%x = 0; parts%u = 0; parts%x0 = 0
+             parts%p(capacity), parts%m(capacity), parts%x0(3, capacity), &
+             parts%xref(3, capacity), parts%id(capacity))
+    parts%x = 0; parts%u = 0; parts%x0 = 0; parts%xref = 0
     parts%rho = 0; parts%p = 0; parts%m = 0; parts%id = 0
   end subroutine particles_allocate
 
@@ -58,6 +61,8 @@ contains
       a(1:1, 1:size(parts%m)) => parts%m
     case (FIELD_X0)
       a => parts%x0
+    case (FIELD_XREF)
+      a => parts%xref
     case default
       error stop 'particles_field: not a real field'
     end select

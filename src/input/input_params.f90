@@ -77,12 +77,21 @@ module input_params
           'stop after this many steps, 0 for no limit (a final snapshot is written then)'), &
     var_t(G_RUN, 'progress_interval', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_NONE, '', 'wall-clock seconds between progress lines'), &
+    var_t(G_RUN, 'wall_limit', T_REAL, SCALAR, LO_GE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
+          'wall-clock seconds the run may take; it stops in time with a checkpoint ' // &
+          '(0: no limit)', &
+          doc='wall-clock seconds the run may take (the job''s time limit less a margin ' // &
+              'for the start of mpirun): it stops early enough to write `checkpoint.h5` ' // &
+              'and exits with code 75; 0: no limit (doc/parallel.md, "Stopping and ' // &
+              'continuing")'), &
     var_t(G_RUN, 'restart', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
           'empty, or an existing snapshot file of the same case', &
-          'snapshot to continue the run from, e.g. runs/circle2d/snap_00010.h5 (empty: none)', &
-          doc='continue the run from this snapshot (`runs/circle2d/snap_00010.h5`), with ' // &
-              'any number of ranks; the snapshot numbering, XDMF index and time series ' // &
-              'in `output.dir` continue (doc/parallel.md)'), &
+          'snapshot or checkpoint to continue the run from, e.g. ' // &
+          'runs/circle2d/snap_00010.h5 (empty: none)', &
+          doc='continue the run from this snapshot (`runs/circle2d/snap_00010.h5`) or ' // &
+              'checkpoint (`runs/circle2d/checkpoint.h5`), with any number of ranks; ' // &
+              'the snapshot numbering, XDMF index and time series in `output.dir` ' // &
+              'continue (doc/parallel.md)'), &
     var_t(G_PARTICLES, 'n', T_INT, SCALAR, LO_GE, HI_LE, 50.0_wp, 2000000000.0_wp, CH_NONE, &
           '', 'approximate number of particles; the spacing dx follows from it'), &
     var_t(G_PARTICLES, 'placement', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
@@ -253,6 +262,7 @@ module input_params
     real(wp) :: t_end = 2.0_wp
     integer :: max_steps = 0                             !< 0: no limit
     real(wp) :: progress_interval = 5.0_wp               !< wall-clock seconds
+    real(wp) :: wall_limit = 0                           !< wall-clock seconds, 0: none
     character(len=DIR_LEN_MAX + 1) :: restart = ''       !< snapshot to continue from
   contains
     procedure, pass(p) :: read_group => read_run
@@ -383,13 +393,14 @@ contains
     character(len=*), intent(inout) :: iomsg
     character(len=NAME_LEN) :: case
     character(len=4 * DIR_LEN_MAX) :: restart   ! wider than p%restart, as for output.dir
-    real(wp) :: t_end, progress_interval
+    real(wp) :: t_end, progress_interval, wall_limit
     integer :: max_steps
-    namelist /run/ case, t_end, max_steps, progress_interval, restart
+    namelist /run/ case, t_end, max_steps, progress_interval, wall_limit, restart
     case = p%case_name
     t_end = p%t_end
     max_steps = p%max_steps
     progress_interval = p%progress_interval
+    wall_limit = p%wall_limit
     restart = p%restart
     read(text, nml=run, iostat=ios, iomsg=iomsg)
     if (ios /= 0) return
@@ -397,6 +408,7 @@ contains
     p%t_end = t_end
     p%max_steps = max_steps
     p%progress_interval = progress_interval
+    p%wall_limit = wall_limit
     p%restart = restart(1:len(p%restart))
   end subroutine read_run
 
@@ -570,6 +582,8 @@ contains
       text = int_str(p%max_steps)
     case ('progress_interval')
       text = real_str(p%progress_interval)
+    case ('wall_limit')
+      text = real_str(p%wall_limit)
     case default
       text = quoted(p%restart)
     end select

@@ -3,31 +3,42 @@
 !> particles of a snapshot read back.
 module particle_io
   use kinds, only: wp, i8
-  use particle_fields, only: FIELD_TABLE, SNAPSHOT_FIELDS, RESTART_FIELDS
+  use particle_fields, only: FIELD_TABLE, SNAPSHOT_FIELDS, RESTART_FIELDS, CHECKPOINT_FIELDS
   use particles, only: particles_t, particles_allocate, particles_field, particles_field_i8
   use snapshot_io, only: snapshot_field_t, snapshot_t, snapshot_get_field
   implicit none
   private
-  public :: particles_snapshot_fields, particles_from_snapshot
+  public :: particles_snapshot_fields, particles_from_snapshot, particles_from_checkpoint
 
 contains
 
   !> The registered snapshot fields of the owned particles, in table order
   !> (vectors with their 3 rows: the snapshot keeps the first dim), then
   !> `extra`, whose arrays are moved, not copied (a snapshot of a million
-  !> particles holds one copy of each field at a time).
-  subroutine particles_snapshot_fields(parts, extra, fields)
+  !> particles holds one copy of each field at a time).  A checkpoint holds
+  !> the registered checkpoint fields too.
+  subroutine particles_snapshot_fields(parts, extra, fields, checkpoint)
     type(particles_t), intent(in), target :: parts
     type(snapshot_field_t), intent(inout) :: extra(:)
     type(snapshot_field_t), allocatable, intent(out) :: fields(:)
+    logical, intent(in), optional :: checkpoint
     real(wp), pointer, contiguous :: a(:, :)
     integer(i8), pointer, contiguous :: ia(:)
+    integer, allocatable :: keys(:)
     integer :: j, f, n, m
+    logical :: with_checkpoint
     n = parts%n
-    m = size(SNAPSHOT_FIELDS)
+    with_checkpoint = .false.
+    if (present(checkpoint)) with_checkpoint = checkpoint
+    if (with_checkpoint) then
+      keys = [SNAPSHOT_FIELDS, CHECKPOINT_FIELDS]
+    else
+      keys = SNAPSHOT_FIELDS
+    end if
+    m = size(keys)
     allocate(fields(m + size(extra)))
     do j = 1, m
-      f = SNAPSHOT_FIELDS(j)
+      f = keys(j)
       fields(j)%name = trim(FIELD_TABLE(f)%name)
       if (FIELD_TABLE(f)%integer8) then
         ia => particles_field_i8(parts, f)
@@ -57,16 +68,37 @@ contains
     type(particles_t), intent(inout), target :: parts
     logical, intent(out) :: ok
     character(len=:), allocatable, intent(out) :: missing
+    call particles_allocate(parts, dim, max(snap%n_local, 1))
+    parts%n = snap%n_local
+    call read_fields(snap, dim, RESTART_FIELDS, parts, ok, missing)
+  end subroutine particles_from_snapshot
+
+  !> The registered checkpoint fields of checkpoint `snap` into the
+  !> particles particles_from_snapshot read from it.
+  subroutine particles_from_checkpoint(snap, dim, parts, ok, missing)
+    type(snapshot_t), intent(in) :: snap
+    integer, intent(in) :: dim
+    type(particles_t), intent(inout), target :: parts
+    logical, intent(out) :: ok
+    character(len=:), allocatable, intent(out) :: missing
+    call read_fields(snap, dim, CHECKPOINT_FIELDS, parts, ok, missing)
+  end subroutine particles_from_checkpoint
+
+  subroutine read_fields(snap, dim, keys, parts, ok, missing)
+    type(snapshot_t), intent(in) :: snap
+    integer, intent(in) :: dim, keys(:)
+    type(particles_t), intent(inout), target :: parts
+    logical, intent(out) :: ok
+    character(len=:), allocatable, intent(out) :: missing
     type(snapshot_field_t) :: sf
     real(wp), pointer, contiguous :: a(:, :)
     integer(i8), pointer, contiguous :: ia(:)
     integer :: j, f, n
     n = snap%n_local
-    call particles_allocate(parts, dim, max(n, 1))
-    parts%n = n
+    ok = .true.
     missing = ''
-    do j = 1, size(RESTART_FIELDS)
-      f = RESTART_FIELDS(j)
+    do j = 1, size(keys)
+      f = keys(j)
       call snapshot_get_field(snap, trim(FIELD_TABLE(f)%name), sf, ok)
       if (ok) ok = allocated(sf%i) .eqv. FIELD_TABLE(f)%integer8
       if (ok) ok = allocated(sf%s) .eqv. (FIELD_TABLE(f)%ncomp == 1 .and. &
@@ -86,6 +118,6 @@ contains
         a(1:dim, 1:n) = sf%v(1:dim, 1:n)
       end if
     end do
-  end subroutine particles_from_snapshot
+  end subroutine read_fields
 
 end module particle_io

@@ -6,21 +6,44 @@
 module restart
   use kinds, only: wp, i8
   use particles, only: particles_t
-  use particle_io, only: particles_from_snapshot
+  use particle_io, only: particles_from_snapshot, particles_from_checkpoint
   use parallel_env, only: parallel_env_t
   use fileutil, only: join_path, file_exists, base_name
   use snapshot_io, only: snapshot_t, snapshot_read, snapshot_filename, xdmf_index_t, xdmf_add
   implicit none
   private
-  public :: restart_read, restart_index_history, snapshot_number
+  public :: restart_read, restart_index_history, snapshot_number, restart_info_t
+  public :: ATTR_ACCEL_MAX, ATTR_LIST_SKIN, ATTR_FORCE_REBUILD, ATTR_SNAPSHOTS
+
+  !> Root attributes of the step history (solver: step_history_t): every
+  !> snapshot stores the largest acceleration of the last right-hand side,
+  !> a checkpoint the list's skin, whether a rebuild is due and how many
+  !> snapshots the run had written.
+  character(len=*), parameter :: ATTR_ACCEL_MAX = 'history_accel_max', &
+                                 ATTR_LIST_SKIN = 'history_list_skin', &
+                                 ATTR_FORCE_REBUILD = 'history_force_rebuild', &
+                                 ATTR_SNAPSHOTS = 'history_snapshots_written'
+
+  !> What a snapshot or a checkpoint says of the steps before it.
+  type :: restart_info_t
+    logical :: checkpoint = .false.    !< position_reference and the list history are there
+    logical :: has_accel = .false.     !< ATTR_ACCEL_MAX is there (snapshots of 2026-12 on)
+    real(wp) :: accel_max = 0
+    real(wp) :: list_skin = 0
+    !> a snapshot was followed by a list rebuild in the run that wrote it
+    logical :: force_rebuild = .true.
+    integer :: snapshots_written = -1  !< checkpoint: the next snapshot's number
+  end type restart_info_t
 
 contains
 
   !> Loads the particles of snapshot `path` (this rank's block of rows) into
   !> parts, with the time and step it was written at.  The snapshot must be
   !> of the same case and dimension and hold every field the registry
-  !> restarts from (`position_initial` among them).
-  subroutine restart_read(env, path, case_name, dim, parts, t, step, ok, errmsg)
+  !> restarts from (`position_initial` among them).  A checkpoint (written
+  !> when a run is stopped early) gives the reference positions of the
+  !> neighbour list too, and info what else the run carried.
+  subroutine restart_read(env, path, case_name, dim, parts, t, step, ok, errmsg, info)
     type(parallel_env_t), intent(in) :: env
     character(len=*), intent(in) :: path, case_name
     integer, intent(in) :: dim
@@ -29,8 +52,11 @@ contains
     integer, intent(out) :: step
     logical, intent(out) :: ok
     character(len=:), allocatable, intent(out) :: errmsg
+    type(restart_info_t), intent(out), optional :: info
     type(snapshot_t) :: snap
+    type(restart_info_t) :: inf
     character(len=:), allocatable :: missing
+    integer :: k
     t = 0
     step = 0
     call snapshot_read(env%comm, path, snap, ok, errmsg)
@@ -50,6 +76,30 @@ contains
                '(written by an older version): it cannot be restarted from'
       return
     end if
+    ! the step history, when the file has it
+    do k = 1, size(snap%attr_names)
+      select case (trim(snap%attr_names(k)))
+      case (ATTR_ACCEL_MAX)
+        inf%has_accel = .true.
+        inf%accel_max = snap%attr_values(k)
+      case (ATTR_LIST_SKIN)
+        inf%checkpoint = .true.
+        inf%list_skin = snap%attr_values(k)
+      case (ATTR_FORCE_REBUILD)
+        inf%force_rebuild = snap%attr_values(k) > 0
+      case (ATTR_SNAPSHOTS)
+        inf%snapshots_written = nint(snap%attr_values(k))
+      end select
+    end do
+    if (inf%checkpoint) then
+      call particles_from_checkpoint(snap, dim, parts, ok, missing)
+      if (.not. ok) then
+        errmsg = '&run restart = ''' // path // ''' is a checkpoint without its ' // &
+                 missing // ' dataset: it cannot be restarted from'
+        return
+      end if
+    end if
+    if (present(info)) info = inf
     t = snap%time
     step = snap%step
   end subroutine restart_read

@@ -57,27 +57,27 @@ contains
   !> at the same steps.  A rebuild is also due when lm%force_rebuild is set
   !> (after each snapshot, so that a run restarted from it goes through the
   !> same list history).  When due, the skin of the next build is set here.
-  subroutine list_check(lm, env, dim, n, x, u, du, id, support, cfl_h, c0, rebuild)
+  subroutine list_check(lm, env, dim, n, x_ref, x, u, a_local, id, support, cfl_h, c0, rebuild)
     type(list_manager_t), intent(inout) :: lm
     type(parallel_env_t), intent(in) :: env
     integer, intent(in) :: dim, n
-    real(wp), intent(in) :: x(:, :), u(:, :), du(:, :), support, cfl_h, c0
+    !> owned positions at the build, now and velocities now
+    real(wp), intent(in) :: x_ref(:, :), x(:, :), u(:, :)
+    !> this rank's largest acceleration of the last right-hand side
+    real(wp), intent(in) :: a_local
+    real(wp), intent(in) :: support, cfl_h, c0
     integer(i8), intent(in) :: id(:)
     logical, intent(out) :: rebuild
     real(wp) :: f(3, 3), v(3, 3), b(3), e_max, w_max, umax, amax, tau, growth, drift, s0
     integer(i8) :: stride
     ! F and V from about FIT_SAMPLE particles picked by id (affine_motion)
     stride = max(1_i8, nint(par_sum(env, real(n, wp)), i8) / FIT_SAMPLE)
-    call affine_fit(env, dim, n, lm%nl%x_ref, x, f, b, e_max, id, stride)
+    call affine_fit(env, dim, n, x_ref, x, f, b, e_max, id, stride)
     call affine_fit(env, dim, n, x, u, v, b, w_max, id, stride)
     umax = 0
-    amax = 0
-    if (n > 0) then
-      umax = sqrt(maxval(sum(u(:, 1:n)**2, dim=1)))
-      amax = sqrt(maxval(sum(du(:, 1:n)**2, dim=1)))
-    end if
+    if (n > 0) umax = sqrt(maxval(sum(u(:, 1:n)**2, dim=1)))
     umax = par_max(env, umax)
-    amax = par_max(env, amax)
+    amax = par_max(env, a_local)
     tau = cfl_h / (c0 + umax)
     growth = tau * sqrt(sum(v**2))
     drift = 2 * tau * w_max + 4 * tau**2 * amax

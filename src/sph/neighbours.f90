@@ -28,7 +28,6 @@ module neighbours
     integer, allocatable :: row(:)        !< (n_rows) the particle of each row
     integer(i8), allocatable :: start(:)  !< (n_rows+1)
     integer, allocatable :: nbr(:)
-    real(wp), allocatable :: x_ref(:, :)  !< owned positions at build, for the validity test
   end type neighbour_list_t
 
   !> The occupied cells of a grid of cubic cells of side `size` aligned on
@@ -169,11 +168,6 @@ contains
     end do
     nl%start(ntot + 1) = np + 1
     nl%n_pairs = np
-    if (allocated(nl%x_ref)) then
-      if (size(nl%x_ref, 2) < n) deallocate(nl%x_ref)
-    end if
-    if (.not. allocated(nl%x_ref)) allocate(nl%x_ref(3, max(n, 1)))
-    nl%x_ref(:, 1:n) = x(:, 1:n)
   end subroutine neighbour_build
 
   !> Bins particles 1..ntot on the occupied cells of side `size` aligned on

@@ -20,12 +20,24 @@ module solver
   private
   public :: solver_t, solver_init, solver_step, solver_evaluate, solver_rebuild, solver_flow_fields, &
             solver_time_step, solver_sync_halo
+  public :: step_history_t, solver_history, solver_restore
 
   !> (T3) the diffusive limit dt <= CFL_DIFF h/(delta c0), below the measured
   !> onset of instability (delta c0 dt/h: stable at 0.33, unstable at 0.45
   !> in 2D; 0.50 and 0.62 in 3D; RK4, Wendland C2); never binding at the
   !> defaults (delta = 0.1 allows 3 h/c0, the largest acoustic step)
   real(wp), parameter :: CFL_DIFF = 0.3_wp
+
+  !> What a step takes from the steps before it besides the particles and
+  !> their reference positions (particles_t%xref): the list's skin, the
+  !> largest acceleration of the last right-hand side (both enter the
+  !> validity test) and whether a rebuild is due.  A checkpoint stores it,
+  !> so that the run it continues goes on exactly as without the stop.
+  type :: step_history_t
+    real(wp) :: skin = 0
+    real(wp) :: a_max = 0
+    logical :: force_rebuild = .false.
+  end type step_history_t
 
   type :: solver_t
     type(particles_t) :: parts
@@ -52,6 +64,7 @@ module solver
     real(wp) :: shift_max = 0
     integer :: n_evaluations = 0
     real(wp) :: umax = 0, amax = 0     !< global maxima at the start of the last step
+    real(wp) :: a_local = 0            !< this rank's largest |du| of the last right-hand side
     real(wp) :: dt_cfl = 0, dt_force = 0, dt_visc = 0, dt_diff = 0  !< the limits of the last step
     !> L_i and lambda_i of the first pass at the first stage of a step only,
     !> kept for its other stages (numerics.renormalise = 'step'); without
@@ -63,18 +76,57 @@ module solver
 contains
 
   !> Sizes the work arrays for the particles already in s%parts and builds
-  !> the first neighbour list.
-  subroutine solver_init(s, env)
+  !> the first neighbour list.  A run continued from a checkpoint passes the
+  !> history `resume` it stored: the list is then built as it was, at the
+  !> reference positions s%parts%xref with the stored skin, so that the
+  !> validity test goes on as without the stop (the sums themselves do not
+  !> depend on which list holds their pairs: they run in canonical order
+  !> over the pairs within the support).
+  subroutine solver_init(s, env, resume)
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
+    type(step_history_t), intent(in), optional :: resume
     call ensure_capacity(s)
-    s%lm%skin = s%lm%skin_min
     ! nu = alpha h c0 / (2 (dim + 2)) for the delta-SPH form (E5: alpha h c0/8 in 2D)
     s%nu = 0
     if (s%rhs%viscosity /= VISC_NONE) &
       s%nu = s%rhs%alpha * s%rhs%kernel%h * s%rhs%c0 / (2 * (s%parts%dim + 2))
-    call solver_rebuild(s, env)
+    if (present(resume)) then
+      s%lm%skin = resume%skin
+      call swap_positions(s%parts)        ! x: the reference positions
+      call solver_rebuild(s, env, resume=.true.)
+    else
+      s%lm%skin = s%lm%skin_min
+      call solver_rebuild(s, env)
+    end if
   end subroutine solver_init
+
+  !> The rest of the history h, after the first evaluation of a continued
+  !> run (which sets its own largest acceleration).
+  subroutine solver_restore(s, h)
+    type(solver_t), intent(inout) :: s
+    type(step_history_t), intent(in) :: h
+    s%a_local = h%a_max
+    s%lm%force_rebuild = h%force_rebuild
+  end subroutine solver_restore
+
+  !> The history of the next step (collective).
+  function solver_history(s, env) result(h)
+    type(solver_t), intent(in) :: s
+    type(parallel_env_t), intent(in) :: env
+    type(step_history_t) :: h
+    h%skin = s%lm%skin
+    h%a_max = par_max(env, s%a_local)
+    h%force_rebuild = s%lm%force_rebuild
+  end function solver_history
+
+  subroutine swap_positions(parts)
+    type(particles_t), intent(inout) :: parts
+    real(wp), allocatable :: tmp(:, :)
+    call move_alloc(parts%x, tmp)
+    call move_alloc(parts%xref, parts%x)
+    call move_alloc(tmp, parts%xref)
+  end subroutine swap_positions
 
   !> Work arrays as large as the particle arrays (which migration and the
   !> halo may have grown).
@@ -95,14 +147,21 @@ contains
   !> Re-balances the decomposition when needed (first build, or imbalance
   !> above the threshold), migrates particles to their owners, sorts the
   !> owned ones by cell (memory locality), brings in the halo copies within
-  !> the list radius and rebuilds the neighbour list (list_build).
-  subroutine solver_rebuild(s, env)
+  !> the list radius and rebuilds the neighbour list (list_build); the owned
+  !> positions become the reference of the validity test.  With resume, x
+  !> holds the reference positions and xref the current ones, which trade
+  !> places after the build (solver_resume).
+  subroutine solver_rebuild(s, env, resume)
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
+    logical, intent(in), optional :: resume
     integer, allocatable :: perm(:)
     real(wp), allocatable :: w(:)
     real(wp) :: radius
     integer :: ntot
+    logical :: resuming
+    resuming = .false.
+    if (present(resume)) resuming = resume
     radius = list_radius(s%lm, s%rhs%kernel%support)
     associate(pt => s%parts)
       call work(w)
@@ -114,6 +173,11 @@ contains
       call ensure_capacity(s)
       ntot = pt%n + pt%n_halo
       call list_build(s%lm, env, pt%dim, pt%n, ntot, pt%x, pt%id, s%rhs%kernel%support)
+      if (resuming) then
+        call swap_positions(pt)
+      else
+        pt%xref(:, 1:pt%n) = pt%x(:, 1:pt%n)
+      end if
       call work(w)
       call decomp_measure(s%dc, env, w)
     end associate
@@ -171,6 +235,8 @@ contains
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
                           s%lm%nl, s%drho, s%du, work=s%rw)
       end if
+      s%a_local = 0
+      if (pt%n > 0) s%a_local = sqrt(maxval(sum(s%du(:, 1:pt%n)**2, dim=1)))
     end associate
     s%n_evaluations = s%n_evaluations + 1
   end subroutine solver_evaluate
@@ -259,8 +325,9 @@ contains
     real(wp), intent(out) :: dt
     integer :: n, stage
     logical :: rebuild
-    call list_check(s%lm, env, s%parts%dim, s%parts%n, s%parts%x, s%parts%u, s%du, &
-                    s%parts%id, s%rhs%kernel%support, s%cfl * s%rhs%kernel%h, s%rhs%c0, rebuild)
+    call list_check(s%lm, env, s%parts%dim, s%parts%n, s%parts%xref, s%parts%x, s%parts%u, &
+                    s%a_local, s%parts%id, s%rhs%kernel%support, s%cfl * s%rhs%kernel%h, &
+                    s%rhs%c0, rebuild)
     if (rebuild) call solver_rebuild(s, env)
     n = s%parts%n      ! migration may have changed it
 
