@@ -54,7 +54,7 @@ LIB_OBJ   := $(sort $(patsubst %.f90,$(BUILD)/%.o,$(notdir $(LIB_SRC))))
 
 vpath %.f90 $(SRC_DIRS) tests
 
-.PHONY: all sph debug test unit bench validate input-doc clean
+.PHONY: all sph debug test unit bench decomp-study validate input-doc clean
 all: sph
 
 # copy then rename: replaces ./sph atomically, even while it is running
@@ -202,6 +202,12 @@ validate: sph
 # runs both alternately, printing the speed-up per case.
 bench: sph
 	$(PYTHON) tests/bench/run_bench.py $(BENCH_ARGS) $(if $(BASELINE),--baseline $(BASELINE))
+
+# Halo copies, partner ranks, bytes and messages per step and imbalance of
+# the slab, METIS and curve decompositions at 2..64 ranks (oversubscribed:
+# counts, not times; about half an hour); table in runs/decomp/decomp.md.
+decomp-study: sph
+	$(PYTHON) tests/bench/decomp_study.py $(DECOMP_ARGS)
 
 # doc/input.md's tables of variables, rewritten from `sph --input-tables`
 # (the rows that describe each variable); the test suite checks they agree.

@@ -17,7 +17,7 @@ module simulation
   use solver, only: solver_t, solver_init, solver_step, solver_evaluate, solver_time_step, &
                     solver_flow_fields, solver_sync_halo, step_history_t, solver_history, &
                     solver_restore
-  use decomposition, only: BALANCE_PARTICLES, BALANCE_PAIRS
+  use decomposition, only: BALANCE_PARTICLES, BALANCE_PAIRS, decomp_partners
   use integrators, only: SCHEME_RK4, SCHEME_PC2
   use diagnostics, only: kinetic_energy, total_mass, total_momentum, probe_pressure, &
                          find_bad_particle
@@ -32,7 +32,7 @@ module simulation
   use restart, only: restart_read, restart_index_history, snapshot_number, restart_info_t, &
                      ATTR_ACCEL_MAX, ATTR_LIST_SKIN, ATTR_FORCE_REBUILD, ATTR_SNAPSHOTS
   use signals, only: signals_install, signals_caught, signal_name
-  use domain, only: DECOMP_SLAB, DECOMP_METIS
+  use domain, only: DECOMP_SLAB, DECOMP_METIS, DECOMP_SFC
   use packing, only: packing_params_t, packing_report_t, pack_ball
   use placement, only: packed_volume
   implicit none
@@ -182,6 +182,9 @@ contains
     wall0 = wall_time()
     wall_last = wall0
     t0_run = t
+    ! traffic per step: the set-up's migration and first halo not counted
+    s%dc%words_sent = 0
+    s%dc%messages_sent = 0
     step0 = step
     iter_max = 0
     done = t >= t_end - tol .or. (cfg%run%max_steps > 0 .and. step >= cfg%run%max_steps)
@@ -274,8 +277,8 @@ contains
     s%eos = eos_init(merge(EOS_TAIT, EOS_LINEAR, cfg%physics%eos == 'tait'), &
                      cfg%physics%c0, cfg%physics%rho0, cfg%physics%gamma)
     call config_case(cfg, run%problem)
-    call run%problem%setup(cfg%particles, cfg%physics, s%eos, s%parts, dx)
-    call keep_share(env, s%parts)
+    call run%problem%setup(cfg%particles, cfg%physics, s%eos, s%parts, dx, &
+                           [env%rank, env%nranks])
     if (len_trim(cfg%particles%from) > 0) then
       call read_packed(cfg, env, run%problem, s, dx, ok)
       if (.not. ok) return
@@ -318,7 +321,18 @@ contains
     s%cfl_force = cfg%numerics%cfl_force
     s%cfl_visc = cfg%numerics%cfl_visc
     s%lm%skin_min = cfg%numerics%skin * s%rhs%kernel%h
-    s%dc%method = merge(DECOMP_METIS, DECOMP_SLAB, cfg%parallel%decomposition == 'metis')
+    select case (cfg%parallel%decomposition)
+    case ('metis')
+      s%dc%method = DECOMP_METIS
+    case ('sfc')
+      s%dc%method = DECOMP_SFC
+    case ('slab')
+      s%dc%method = DECOMP_SLAB
+    case default
+      ! auto: slabs have the fewest copies and partners on few ranks; beyond
+      ! 4 they grow as P and the curve's pieces win (doc/parallel.md)
+      s%dc%method = merge(DECOMP_SLAB, DECOMP_SFC, env%nranks <= 4)
+    end select
     s%dc%balance = merge(BALANCE_PAIRS, BALANCE_PARTICLES, cfg%parallel%balance == 'pairs')
     s%dc%imbalance_threshold = cfg%parallel%imbalance_threshold
     run%n_probes = cfg%output%n_probes
@@ -379,22 +393,6 @@ contains
     s%parts%rho(1:s%parts%n) = 1
     call problem%initial_state(s%eos, s%parts)
   end subroutine read_packed
-
-  !> Every rank has set up the whole case: each keeps a contiguous share of
-  !> it; the first list build then balances the decomposition and migrates
-  !> the particles to their owners.
-  subroutine keep_share(env, parts)
-    type(parallel_env_t), intent(in) :: env
-    type(particles_t), intent(inout) :: parts
-    integer :: lo, hi, k
-    integer(i8) :: ntot
-    if (env%nranks == 1) return
-    ntot = parts%n
-    lo = int(ntot * env%rank / env%nranks) + 1
-    hi = int(ntot * (env%rank + 1) / env%nranks)
-    call particles_permute(parts, [(k, k = lo, hi)])
-    parts%n = hi - lo + 1
-  end subroutine keep_share
 
   function column_names(run, dim) result(names)
     type(run_t), intent(in) :: run
@@ -675,9 +673,20 @@ contains
     type(run_t), intent(in) :: run
     integer, intent(in) :: steps
     real(wp), intent(in) :: wall
-    real(wp) :: comm, mem_max, mem_total, listed, in_range
+    real(wp) :: comm, mem_max, mem_total, listed, in_range, halo, partners, partners_max, &
+                words, words_max, messages, pairs
     integer(i8) :: n_listed, n_in_range
     comm = par_max(env, s%dc%comm_time)
+    ! what the decomposition costs in copies and messages (doc/parallel.md)
+    halo = par_sum(env, real(s%parts%n_halo, wp)) / max(run%n_global, 1_i8)
+    partners = par_sum(env, real(decomp_partners(s%dc), wp)) / env%nranks
+    partners_max = par_max(env, real(decomp_partners(s%dc), wp))
+    words = par_sum(env, s%dc%words_sent) / env%nranks
+    words_max = par_max(env, s%dc%words_sent)
+    messages = par_sum(env, real(s%dc%messages_sent, wp)) / env%nranks
+    ! listed pairs with at least one owned particle: those across a cut are
+    ! held (and evaluated) on both ranks
+    pairs = par_sum(env, real(s%lm%nl%n_pairs, wp)) / max(run%n_global, 1_i8)
     mem_max = par_max(env, peak_memory_mb())
     mem_total = par_sum(env, peak_memory_mb())
     call neighbour_counts(s%lm%nl, s%parts%n, s%parts%x, s%rhs%kernel%support**2, n_listed, &
@@ -700,6 +709,14 @@ contains
       '  imbalance (max/mean particles) mean ', run%imb_sum / max(run%imb_n, 1), ', max ', &
       run%imb_max, ', re-balanced ', s%dc%n_balances, ' times, ', s%dc%n_migrated, &
       ' migrations, communication ', 100 * comm / max(wall, 1e-9_wp), ' % of the wall time'
+    if (env%nranks > 1) write(output_unit, '(a,f8.4,a,f6.2,a,i0,a,es10.3,a,es10.3,a,f8.2,a)') &
+      '  halo: ', halo, ' copies per particle, ', partners, ' partner ranks per rank (max ', &
+      nint(partners_max), '); sent per rank and step ', 8 * words / max(steps, 1), &
+      ' bytes (max ', 8 * words_max / max(steps, 1), '), ', messages / max(steps, 1), &
+      ' messages'
+    if (env%nranks > 1) write(output_unit, '(a,f8.4,a,f6.2,a)') '  pairs evaluated ', &
+      pairs / max(listed / 2, 1e-300_wp), ' times the one-rank count (', &
+      100 * (pairs / max(listed / 2, 1e-300_wp) - 1), ' % across the cuts, twice)'
     flush(output_unit)
   end subroutine print_end
 

@@ -5,16 +5,16 @@
 !> or reference solution and the errors against it), and its closing summary.
 !> A new case is a new module extending case_t plus one line in case_factory.
 module case_base
-  use kinds, only: wp
+  use kinds, only: wp, i8
   use input_var, only: var_t
   use input_params, only: particles_params_t, physics_params_t
   use eos, only: eos_t
   use kernels, only: kernel_t
-  use particles, only: particles_t
+  use particles, only: particles_t, particles_permute
   use parallel_env, only: parallel_env_t
   implicit none
   private
-  public :: case_t, case_fields_t, case_flow_t, case_slot_t
+  public :: case_t, case_fields_t, case_flow_t, case_slot_t, keep_share
 
   !> Extra per-particle snapshot fields and root attributes of a case.
   type :: case_fields_t
@@ -97,8 +97,11 @@ module case_base
       character(len=:), allocatable, intent(out) :: formula
     end subroutine max_speed_i
 
-    !> Places the particles and sets their initial state; dx is the spacing.
-    subroutine setup_i(self, particles, physics, eos, parts, dx)
+    !> Places this rank's particles and sets their initial state; dx is the
+    !> spacing.  share = [r, P]: rank r of P keeps the particles numbered
+    !> (their ids) floor(r N/P) + 1 .. floor((r+1) N/P) of the N of the case,
+    !> generated without the others where the placement allows it.
+    subroutine setup_i(self, particles, physics, eos, parts, dx, share)
       import :: case_t, particles_params_t, physics_params_t, eos_t, &
                 particles_t, wp
       class(case_t), intent(inout) :: self
@@ -107,6 +110,7 @@ module case_base
       type(eos_t), intent(in) :: eos
       type(particles_t), intent(inout) :: parts
       real(wp), intent(out) :: dx
+      integer, intent(in) :: share(2)
     end subroutine setup_i
 
     !> Names of the time-series columns the case adds after the generic ones.
@@ -173,5 +177,20 @@ contains
     if (self%pack_radius > 0) error stop 'case_t: a case that packs must set its initial_state'
     if (.false.) parts%n = parts%n + 0 * int(eos%c0)
   end subroutine no_initial_state
+
+  !> For a case that sets up all its particles (ids 1..N in order): keeps
+  !> the share of setup_i's rule.
+  subroutine keep_share(parts, share)
+    type(particles_t), intent(inout) :: parts
+    integer, intent(in) :: share(2)
+    integer :: lo, hi, k
+    integer(i8) :: ntot
+    if (share(2) == 1) return
+    ntot = parts%n
+    lo = int(ntot * share(1) / share(2)) + 1
+    hi = int(ntot * (share(1) + 1) / share(2))
+    call particles_permute(parts, [(k, k = lo, hi)])
+    parts%n = hi - lo + 1
+  end subroutine keep_share
 
 end module case_base

@@ -22,7 +22,7 @@
 !> each particle with its partner (symmetry error below).
 module case_square
   use kinds, only: wp, pi
-  use case_base, only: case_t, case_fields_t, case_flow_t
+  use case_base, only: case_t, case_fields_t, case_flow_t, keep_share
   use input_params, only: particles_params_t, physics_params_t
   use kernels, only: kernel_t, kernel_init, kernel_kind_of
   use particles, only: particles_t, particles_allocate
@@ -96,13 +96,14 @@ contains
   !> sets u from the case's field, p from the Poisson solution, rho from the
   !> inverse equation of state and m = rho dx^2.  particles.placement is
   !> not used: the squares are always on a lattice.
-  subroutine square_setup(self, particles, physics, eos, parts, dx)
+  subroutine square_setup(self, particles, physics, eos, parts, dx, share)
     class(square_patch_t), intent(inout) :: self
     type(particles_params_t), intent(in) :: particles
     type(physics_params_t), intent(in) :: physics
     type(eos_t), intent(in) :: eos
     type(particles_t), intent(inout) :: parts
     real(wp), intent(out) :: dx
+    integer, intent(in) :: share(2)
     type(poisson_square_t) :: ps
     real(wp), allocatable :: f(:, :), xn(:), g(:)
     real(wp) :: x, y, p
@@ -175,6 +176,9 @@ contains
       self%topo0 = fluid_topology(xp(1:2, :), dx, CAVITY_AREA * l**2)
     end associate
     end associate
+    ! the references above need the whole lattice (2D, at most some 10^5
+    ! particles): the share is kept afterwards
+    call keep_share(parts, share)
   end subroutine square_setup
 
   !> f'(s) for f(s) = exp(-(4 s/L)^2).

@@ -7,12 +7,12 @@
 !> p = P(0) (1 - |x|^2/R^2), rho from the inverse equation of state,
 !> m = rho times the particle's area (volume).
 module case_stretching
-  use kinds, only: wp
+  use kinds, only: wp, i8
   use case_base, only: case_t, case_fields_t, case_flow_t
   use input_params, only: particles_params_t, physics_params_t
   use kernels, only: kernel_t
   use particles, only: particles_t, particles_allocate
-  use placement, only: place_ball, ball_spacing
+  use placement, only: place_ball, ball_spacing, packed_volume
   use eos, only: eos_t, eos_density
   use exact_ellipse, only: ellipse_exact_t, ellipse_exact_init, ellipse_exact_at, &
                            ellipse_centre_pressure, ellipse_map, ellipse_velocity, &
@@ -50,17 +50,19 @@ module case_stretching
 
 contains
 
-  !> Places the particles and sets their initial state (one rank holds all
-  !> until the domain decomposition distributes them).
-  subroutine stretching_setup(self, particles, physics, eos, parts, dx)
+  !> Places this rank's share of the particles (the placement generates it
+  !> alone) and sets their initial state; the first list build moves them
+  !> to their owners.
+  subroutine stretching_setup(self, particles, physics, eos, parts, dx, share)
     class(stretching_t), intent(inout) :: self
     type(particles_params_t), intent(in) :: particles
     type(physics_params_t), intent(in) :: physics
     type(eos_t), intent(in) :: eos
     type(particles_t), intent(inout) :: parts
     real(wp), intent(out) :: dx
+    integer, intent(in) :: share(2)
     real(wp), allocatable :: x(:, :), vol(:)
-    integer :: i, np, place
+    integer :: i, np, place, first, n_total
     select case (particles%placement)
     case ('lattice')
       place = PLACE_LATTICE
@@ -74,20 +76,20 @@ contains
                             self%a0 * self%rates(1:self%dim))
     self%p0 = ellipse_centre_pressure(self%ex)
     dx = ball_spacing(self%dim, self%radius, particles%n, place)
-    call place_ball(self%dim, self%radius, dx, place, x, vol)
+    call place_ball(self%dim, self%radius, dx, place, x, vol, share, first, n_total)
     np = size(vol)
     ! packed: equal volumes |Omega|/N, dx the spacing that goes with them
     if (place == PLACE_PACKED) then
-      dx = vol(1)**(1 / real(self%dim, wp))
+      dx = packed_volume(self%dim, self%radius, int(n_total, i8))**(1 / real(self%dim, wp))
       self%pack_radius = self%radius
     end if
-    call particles_allocate(parts, self%dim, np)
+    call particles_allocate(parts, self%dim, max(np, 1))
     parts%n = np
     do i = 1, np
       parts%x(:, i) = x(:, i)
       parts%m(i) = vol(i)
       parts%rho(i) = 1
-      parts%id(i) = i
+      parts%id(i) = first + i - 1
     end do
     call stretching_initial_state(self, eos, parts)
   end subroutine stretching_setup

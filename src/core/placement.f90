@@ -12,6 +12,10 @@
 !> PACK_NOISE dx per axis (a hash of the particle's number, so the guess is
 !> the same on every rank and every run) and kept inside R - dx/4; every
 !> particle gets the volume |Omega|/N.
+!>
+!> Every placement numbers its particles 1..N in a fixed order, so a rank
+!> can generate its own share (a contiguous range of numbers) without the
+!> others: the set-up is distributed, no rank holds all particles.
 module placement
   use kinds, only: wp, pi, i8
   implicit none
@@ -42,26 +46,48 @@ contains
     end if
   end function ball_spacing
 
-  !> Positions x(3, np) and volumes vol(np) of the particles of the ball.
-  subroutine place_ball(dim, radius, dx, kind, x, vol)
+  !> Positions x(3, :) and volumes vol(:) of the particles of the ball:
+  !> all of them, or with share = [r, P] the r-th of P contiguous shares of
+  !> their numbers (r = 0..P-1: numbers floor(r N/P) + 1 .. floor((r+1) N/P)).
+  !> first: the number of x(:, 1); n_total: N.
+  subroutine place_ball(dim, radius, dx, kind, x, vol, share, first, n_total)
     integer, intent(in) :: dim, kind
     real(wp), intent(in) :: radius, dx
     real(wp), allocatable, intent(out) :: x(:, :), vol(:)
-    if (kind == PLACE_RINGS) then
-      if (dim == 2) then
-        call rings_2d(radius, dx, x, vol)
-      else
-        call shells_3d(radius, dx, x, vol)
-      end if
+    integer, intent(in), optional :: share(2)
+    integer, intent(out), optional :: first, n_total
+    integer :: total, lo, hi
+    if (kind == PLACE_RINGS .and. dim == 2) then
+      total = rings_2d_count(radius, dx)
+    else if (kind == PLACE_RINGS) then
+      total = shells_3d_count(radius, dx)
     else
-      call clipped_lattice(dim, radius, dx, x, vol)
-      if (kind == PLACE_PACKED) call perturb(dim, radius, dx, x, vol)
+      total = clipped_lattice_count(dim, radius, dx)
     end if
+    lo = 1
+    hi = total
+    if (present(share)) then
+      lo = int(int(total, i8) * share(1) / share(2)) + 1
+      hi = int(int(total, i8) * (share(1) + 1) / share(2))
+    end if
+    allocate(x(3, hi - lo + 1), vol(hi - lo + 1))
+    x = 0
+    if (kind == PLACE_RINGS .and. dim == 2) then
+      call rings_2d(radius, dx, lo, hi, x, vol)
+    else if (kind == PLACE_RINGS) then
+      call shells_3d(radius, dx, lo, hi, x, vol)
+    else
+      call clipped_lattice(dim, radius, dx, lo, hi, x, vol)
+      if (kind == PLACE_PACKED) call perturb(dim, radius, dx, lo, total, x, vol)
+    end if
+    if (present(first)) first = lo
+    if (present(n_total)) n_total = total
   end subroutine place_ball
 
-  !> The packing's first guess from the clipped lattice (see the header).
-  subroutine perturb(dim, radius, dx, x, vol)
-    integer, intent(in) :: dim
+  !> The packing's first guess from the clipped lattice (see the header),
+  !> for the particles numbered lo.. of total.
+  subroutine perturb(dim, radius, dx, lo, total, x, vol)
+    integer, intent(in) :: dim, lo, total
     real(wp), intent(in) :: radius, dx
     real(wp), intent(inout) :: x(:, :), vol(:)
     real(wp) :: r, r_max
@@ -69,12 +95,12 @@ contains
     r_max = radius - 0.25_wp * dx
     do i = 1, size(vol)
       do k = 1, dim
-        x(k, i) = x(k, i) + PACK_NOISE * dx * (2 * hash_uniform(i, k) - 1)
+        x(k, i) = x(k, i) + PACK_NOISE * dx * (2 * hash_uniform(lo + i - 1, k) - 1)
       end do
       r = norm2(x(:, i))
       if (r > r_max) x(:, i) = x(:, i) * (r_max / r)
     end do
-    vol = packed_volume(dim, radius, size(vol, kind=i8))
+    vol = packed_volume(dim, radius, int(total, i8))
   end subroutine perturb
 
   !> The volume of each of n packed particles, |Omega|/n (one expression for
@@ -108,102 +134,130 @@ contains
     u = real(z - 1, wp) / real(m - 1, wp)
   end function hash_uniform
 
-  subroutine rings_2d(radius, dx, x, vol)
+  !> Rings: particles numbered lo..hi into x(:, 1:), vol(1:).
+  subroutine rings_2d(radius, dx, lo, hi, x, vol)
     real(wp), intent(in) :: radius, dx
-    real(wp), allocatable, intent(out) :: x(:, :), vol(:)
-    integer :: nrings, k, j, nk, np, total
+    integer, intent(in) :: lo, hi
+    real(wp), intent(inout) :: x(:, :), vol(:)
+    integer :: k, j, nk, np
     real(wp) :: rk, theta, shift
-    nrings = nint(radius / dx)
-    total = 0
-    do k = 1, nrings
-      total = total + ring_count(k)
-    end do
-    allocate(x(3, total), vol(total))
-    x = 0
     np = 0
-    do k = 1, nrings
-      rk = (k - 0.5_wp) * dx
+    do k = 1, nint(radius / dx)
       nk = ring_count(k)
+      if (np + nk < lo) then                  ! the whole ring comes before the share
+        np = np + nk
+        cycle
+      end if
+      rk = (k - 0.5_wp) * dx
       ! alternate rings are rotated by half a spacing, like a hexagonal packing
       shift = 0.5_wp * mod(k, 2)
       do j = 1, nk
-        theta = 2 * pi * (j - 1 + shift) / nk
         np = np + 1
-        x(1:2, np) = rk * [cos(theta), sin(theta)]
+        if (np < lo .or. np > hi) cycle
+        theta = 2 * pi * (j - 1 + shift) / nk
+        x(1:2, np - lo + 1) = rk * [cos(theta), sin(theta)]
         ! annulus between (k-1) dx and k dx shared by its nk particles
-        vol(np) = pi * dx**2 * (2 * k - 1) / nk
+        vol(np - lo + 1) = pi * dx**2 * (2 * k - 1) / nk
       end do
+      if (np >= hi) exit
     end do
-  contains
-    integer function ring_count(kk)
-      integer, intent(in) :: kk
-      ring_count = max(1, nint(2 * pi * (kk - 0.5_wp)))
-    end function ring_count
   end subroutine rings_2d
+
+  integer function rings_2d_count(radius, dx) result(total)
+    real(wp), intent(in) :: radius, dx
+    integer :: k
+    total = 0
+    do k = 1, nint(radius / dx)
+      total = total + ring_count(k)
+    end do
+  end function rings_2d_count
+
+  pure integer function ring_count(k)
+    integer, intent(in) :: k
+    ring_count = max(1, nint(2 * pi * (k - 0.5_wp)))
+  end function ring_count
 
   !> Shells of radius (k - 1/2) dx, each with about 4 pi r^2/dx^2 points on a
   !> Fibonacci spiral (near-uniform on the sphere); successive shells are
   !> turned by the golden angle so their seams do not line up.
-  subroutine shells_3d(radius, dx, x, vol)
+  subroutine shells_3d(radius, dx, lo, hi, x, vol)
     real(wp), intent(in) :: radius, dx
-    real(wp), intent(out), allocatable :: x(:, :), vol(:)
+    integer, intent(in) :: lo, hi
+    real(wp), intent(inout) :: x(:, :), vol(:)
     real(wp), parameter :: golden = pi * (3 - sqrt(5.0_wp))
-    integer :: nshells, k, j, nk, np, total
+    integer :: k, j, nk, np
     real(wp) :: rk, z, rho, phi, shell_vol
-    nshells = nint(radius / dx)
-    total = 0
-    do k = 1, nshells
-      total = total + shell_count(k)
-    end do
-    allocate(x(3, total), vol(total))
     np = 0
-    do k = 1, nshells
-      rk = (k - 0.5_wp) * dx
+    do k = 1, nint(radius / dx)
       nk = shell_count(k)
+      if (np + nk < lo) then
+        np = np + nk
+        cycle
+      end if
+      rk = (k - 0.5_wp) * dx
       shell_vol = 4 * pi / 3 * dx**3 * (real(k, wp)**3 - real(k - 1, wp)**3)
       do j = 0, nk - 1
+        np = np + 1
+        if (np < lo .or. np > hi) cycle
         z = 1 - (2 * j + 1) / real(nk, wp)
         rho = sqrt(max(0.0_wp, 1 - z**2))
         phi = golden * j + golden * k
-        np = np + 1
-        x(:, np) = rk * [rho * cos(phi), rho * sin(phi), z]
-        vol(np) = shell_vol / nk
+        x(:, np - lo + 1) = rk * [rho * cos(phi), rho * sin(phi), z]
+        vol(np - lo + 1) = shell_vol / nk
       end do
+      if (np >= hi) exit
     end do
-  contains
-    integer function shell_count(kk)
-      integer, intent(in) :: kk
-      shell_count = max(1, nint(4 * pi * (kk - 0.5_wp)**2))
-    end function shell_count
   end subroutine shells_3d
+
+  integer function shells_3d_count(radius, dx) result(total)
+    real(wp), intent(in) :: radius, dx
+    integer :: k
+    total = 0
+    do k = 1, nint(radius / dx)
+      total = total + shell_count(k)
+    end do
+  end function shells_3d_count
+
+  pure integer function shell_count(k)
+    integer, intent(in) :: k
+    shell_count = max(1, nint(4 * pi * (k - 0.5_wp)**2))
+  end function shell_count
 
   !> Lattice points ((i + 1/2) dx, ...) inside the ball, symmetric about the
   !> centre in every axis.
-  subroutine clipped_lattice(dim, radius, dx, x, vol)
-    integer, intent(in) :: dim
+  !> (numbers lo..hi; the count with lo > hi, x and vol then untouched)
+  subroutine clipped_lattice(dim, radius, dx, lo, hi, x, vol, total)
+    integer, intent(in) :: dim, lo, hi
     real(wp), intent(in) :: radius, dx
-    real(wp), allocatable, intent(out) :: x(:, :), vol(:)
-    integer :: m, i, j, k, kz, np, pass
+    real(wp), intent(inout) :: x(:, :), vol(:)
+    integer, intent(out), optional :: total
+    integer :: m, i, j, k, kz, np
     real(wp) :: p(3)
     m = ceiling(radius / dx)
     kz = merge(m, 0, dim == 3)
     np = 0
-    do pass = 1, 2
-      np = 0
-      do k = -kz, max(kz - 1, 0)
-        do j = -m, m - 1
-          do i = -m, m - 1
-            p = [(i + 0.5_wp) * dx, (j + 0.5_wp) * dx, 0.0_wp]
-            if (dim == 3) p(3) = (k + 0.5_wp) * dx
-            if (sum(p**2) >= radius**2) cycle
-            np = np + 1
-            if (pass == 2) x(:, np) = p
-          end do
+    do k = -kz, max(kz - 1, 0)
+      do j = -m, m - 1
+        do i = -m, m - 1
+          p = [(i + 0.5_wp) * dx, (j + 0.5_wp) * dx, 0.0_wp]
+          if (dim == 3) p(3) = (k + 0.5_wp) * dx
+          if (sum(p**2) >= radius**2) cycle
+          np = np + 1
+          if (np >= lo .and. np <= hi) then
+            x(:, np - lo + 1) = p
+            vol(np - lo + 1) = dx**dim
+          end if
         end do
       end do
-      if (pass == 1) allocate(x(3, np), vol(np))
     end do
-    vol = dx**dim
+    if (present(total)) total = np
   end subroutine clipped_lattice
+
+  integer function clipped_lattice_count(dim, radius, dx) result(total)
+    integer, intent(in) :: dim
+    real(wp), intent(in) :: radius, dx
+    real(wp) :: x(3, 0), vol(0)
+    call clipped_lattice(dim, radius, dx, 1, 0, x, vol, total)
+  end function clipped_lattice_count
 
 end module placement

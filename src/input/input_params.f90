@@ -38,7 +38,7 @@ module input_params
   character(len=NAME_LEN), parameter :: DIVERGENCES(*) = &
     [character(len=NAME_LEN) :: 'standard', 'renormalised']
   character(len=NAME_LEN), parameter :: DECOMPOSITIONS(*) = &
-    [character(len=NAME_LEN) :: 'slab', 'metis']
+    [character(len=NAME_LEN) :: 'auto', 'slab', 'metis', 'sfc']
   character(len=NAME_LEN), parameter :: BALANCES(*) = &
     [character(len=NAME_LEN) :: 'particles', 'pairs']
 
@@ -244,9 +244,13 @@ module input_params
           doc='probe k is at `probes(1:3,k)`, k = 1..n_probes. The third component is ' // &
               'ignored in 2D'), &
     var_t(G_PARALLEL, 'decomposition', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_DECOMPOSITION, '', 'slabs along the longest axis, or a METIS partition of cells', &
-          doc='slabs along the longest axis of the particle cloud, or a METIS partition ' // &
-              'of the graph of occupied cells'), &
+          CH_DECOMPOSITION, '', 'auto (slab up to 4 ranks, else sfc), slab, METIS ' // &
+          'partition of cells, or sfc (pieces of a Hilbert curve)', &
+          doc='`auto`: `slab` on up to 4 ranks, `sfc` on more (the measured choice, ' // &
+              'doc/parallel.md); `slab`: slabs along the longest axis of the particle ' // &
+              'cloud; `metis`: a METIS partition of the graph of occupied cells; `sfc`: ' // &
+              'the cells in the order of a Hilbert space-filling curve, cut into pieces ' // &
+              'of equal work'), &
     var_t(G_PARALLEL, 'balance', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_BALANCE, '', 'work measure for the balance: particle count or listed pairs', &
           doc='the work to balance: particle counts, or each particle''s number of ' // &
@@ -340,7 +344,7 @@ module input_params
 
   !> &parallel: the domain decomposition across MPI ranks.
   type :: parallel_params_t
-    character(len=NAME_LEN) :: decomposition = 'slab'
+    character(len=NAME_LEN) :: decomposition = 'auto'
     character(len=NAME_LEN) :: balance = 'particles'
     real(wp) :: imbalance_threshold = 0.1_wp
   contains

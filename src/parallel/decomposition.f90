@@ -9,10 +9,12 @@ module decomposition
   use parallel_env, only: parallel_env_t, wall_time
   use domain, only: domain_t, domain_balance, domain_imbalance, DECOMP_SLAB
   use halo_exchange, only: halo_t, migrate, halo_build, halo_refresh, halo_refresh_field
+  use particle_fields, only: MIGRATE_WORDS, HALO_WORDS, REFRESH_WORDS
   implicit none
   private
   public :: decomposition_t, decomp_redistribute, decomp_halo_build, decomp_refresh, &
-            decomp_refresh_field, decomp_measure, BALANCE_PARTICLES, BALANCE_PAIRS
+            decomp_refresh_field, decomp_measure, decomp_partners, BALANCE_PARTICLES, &
+            BALANCE_PAIRS
 
   integer, parameter :: BALANCE_PARTICLES = 1, BALANCE_PAIRS = 2   !< work measures
 
@@ -26,6 +28,10 @@ module decomposition
     integer :: n_balances = 0
     integer(i8) :: n_migrated = 0              !< particles that changed rank
     real(wp) :: comm_time = 0                  !< wall time in halo exchanges and migration
+    !> what this rank sent to others: reals (migration, halo builds and
+    !> refreshes) and point-to-point messages
+    real(wp) :: words_sent = 0
+    integer(i8) :: messages_sent = 0
   end type decomposition_t
 
 contains
@@ -50,6 +56,7 @@ contains
     t0 = wall_time()
     call migrate(env, dc%dom, pt, n_left)
     dc%n_migrated = dc%n_migrated + n_left
+    dc%words_sent = dc%words_sent + real(MIGRATE_WORDS, wp) * n_left
     dc%comm_time = dc%comm_time + (wall_time() - t0)
   end subroutine decomp_redistribute
 
@@ -63,6 +70,7 @@ contains
     t0 = wall_time()
     call halo_build(dc%halo, env, dc%dom, pt, radius)
     dc%comm_time = dc%comm_time + (wall_time() - t0)
+    call count_sent(dc, HALO_WORDS)
   end subroutine decomp_halo_build
 
   !> The halo copies brought to the owners' current state.
@@ -74,6 +82,7 @@ contains
     t0 = wall_time()
     call halo_refresh(dc%halo, env, pt)
     dc%comm_time = dc%comm_time + (wall_time() - t0)
+    call count_sent(dc, REFRESH_WORDS)
   end subroutine decomp_refresh
 
   !> The halo slots n+1.. of a per-particle field a(:, ntot) from their owners.
@@ -86,6 +95,7 @@ contains
     t0 = wall_time()
     call halo_refresh_field(dc%halo, env, n, a)
     dc%comm_time = dc%comm_time + (wall_time() - t0)
+    call count_sent(dc, size(a, 1))
   end subroutine decomp_refresh_field
 
   !> The imbalance (max/mean over the ranks) of the work w of the owned
@@ -96,5 +106,31 @@ contains
     real(wp), intent(in) :: w(:)
     dc%imbalance = domain_imbalance(env, sum(w))
   end subroutine decomp_measure
+
+  !> Counts a halo exchange of `words` reals per copy.
+  subroutine count_sent(dc, words)
+    type(decomposition_t), intent(inout) :: dc
+    integer, intent(in) :: words
+    integer :: q
+    if (.not. allocated(dc%halo%send_start)) return
+    dc%words_sent = dc%words_sent + real(words, wp) * dc%halo%n_sent
+    do q = 0, size(dc%halo%send_start) - 2
+      if (dc%halo%send_start(q + 1) > dc%halo%send_start(q)) &
+        dc%messages_sent = dc%messages_sent + 1
+    end do
+  end subroutine count_sent
+
+  !> The number of other ranks this rank's halo exchanges with (sends to or
+  !> receives from).
+  integer function decomp_partners(dc) result(k)
+    type(decomposition_t), intent(in) :: dc
+    integer :: q
+    k = 0
+    if (.not. allocated(dc%halo%send_start)) return
+    do q = 0, size(dc%halo%send_start) - 2
+      if (dc%halo%send_start(q + 1) > dc%halo%send_start(q) .or. &
+          dc%halo%recv_start(q + 1) > dc%halo%recv_start(q)) k = k + 1
+    end do
+  end function decomp_partners
 
 end module decomposition

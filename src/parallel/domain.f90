@@ -1,10 +1,13 @@
 !> Domain decomposition: which rank owns which part of space.
 !>
-!> Two kinds share one interface, so the halo and migration code serves both:
+!> Three kinds share one interface, so the halo and migration code serves all:
 !>  - slabs along one axis (the axis of largest extent of the particle
 !>    cloud), cut where the cumulative work reaches k/P of the total;
 !>  - an owner-of-cell map on a grid of cells, from a METIS partition of the
-!>    graph of occupied cells (weights: the work in each cell).
+!>    graph of occupied cells (weights: the work in each cell);
+!>  - a space-filling curve: the cells of that grid ordered along a Hilbert
+!>    curve and cut into P contiguous pieces of equal work (rank r owns the
+!>    keys splitters(r) <= key < splitters(r+1)); nothing per cell is stored.
 !> owner(x) names the rank owning point x; ranks_near(x, R) lists the other
 !> ranks owning some point within R of x: a particle is copied to those as
 !> a halo, which is correct however thin a region is.
@@ -17,9 +20,9 @@ module domain
   implicit none
   private
   public :: domain_t, domain_owner, domain_ranks_near, domain_balance, domain_imbalance
-  public :: DECOMP_SLAB, DECOMP_METIS
+  public :: DECOMP_SLAB, DECOMP_METIS, DECOMP_SFC, hilbert_key
 
-  integer, parameter :: DECOMP_SLAB = 1, DECOMP_METIS = 2
+  integer, parameter :: DECOMP_SLAB = 1, DECOMP_METIS = 2, DECOMP_SFC = 3
 
   type :: domain_t
     integer :: kind = DECOMP_SLAB
@@ -32,6 +35,9 @@ module domain
     real(wp) :: origin(3) = 0, cell = 1
     integer :: nc(3) = 1
     integer, allocatable :: cell_owner(:)       !< (product(nc)), 0-based ranks
+    ! space-filling curve on the same grid: keys of `bits` bits per axis
+    integer :: bits = 1
+    integer(i8), allocatable :: splitters(:)    !< (0:nranks), 0 and 2^(dim bits)
     integer :: n_balances = 0
   end type domain_t
 
@@ -58,9 +64,59 @@ contains
       end do
       r = lo
     else
-      r = d%cell_owner(cell_index(d, cell_coords(d, x)))
+      r = cell_rank(d, cell_coords(d, x))
     end if
   end function domain_owner
+
+  !> The last r in 0..P-1 with cuts(r) <= v (strict: cuts(r) < v; 0 if none).
+  pure integer function last_cut(d, v, strict) result(r)
+    type(domain_t), intent(in) :: d
+    real(wp), intent(in) :: v
+    logical, intent(in) :: strict
+    integer :: lo, hi, mid
+    logical :: below
+    lo = 0
+    hi = d%nranks - 1
+    do while (lo < hi)
+      mid = (lo + hi + 1) / 2
+      if (strict) then
+        below = d%cuts(mid) < v
+      else
+        below = d%cuts(mid) <= v
+      end if
+      if (below) then
+        lo = mid
+      else
+        hi = mid - 1
+      end if
+    end do
+    r = lo
+  end function last_cut
+
+  !> The rank that owns cell c (cell map or curve).
+  pure integer function cell_rank(d, c) result(r)
+    type(domain_t), intent(in) :: d
+    integer, intent(in) :: c(3)
+    integer(i8) :: key
+    integer :: lo, hi, mid
+    if (d%kind == DECOMP_METIS) then
+      r = d%cell_owner(cell_index(d, c))
+      return
+    end if
+    ! the last r with splitters(r) <= key
+    key = hilbert_key(c, d%bits, d%dim)
+    lo = 0
+    hi = d%nranks - 1
+    do while (lo < hi)
+      mid = (lo + hi + 1) / 2
+      if (d%splitters(mid) <= key) then
+        lo = mid
+      else
+        hi = mid - 1
+      end if
+    end do
+    r = lo
+  end function cell_rank
 
   !> The ranks other than owner(x) that own some point within `radius` of
   !> x, in ascending order (nr of them in ranks(1:nr)).
@@ -74,12 +130,12 @@ contains
     if (d%nranks == 1) return
     me = domain_owner(d, x)
     if (d%kind == DECOMP_SLAB) then
-      do q = 0, d%nranks - 1
+      ! the slabs q with cuts(q) < x + R and cuts(q+1) > x - R: a run of
+      ! consecutive ranks, found by two binary searches (not a loop over P)
+      do q = last_cut(d, x(d%axis) - radius, .false.), last_cut(d, x(d%axis) + radius, .true.)
         if (q == me) cycle
-        if (d%cuts(q) < x(d%axis) + radius .and. d%cuts(q + 1) > x(d%axis) - radius) then
-          nr = nr + 1
-          ranks(nr) = q
-        end if
+        nr = nr + 1
+        ranks(nr) = q
       end do
     else
       ! a point within `radius` lies at most `layers` cells away, and
@@ -91,7 +147,7 @@ contains
         do j = -layers, layers
           do i = -layers, layers
             c = clamp_coords(d, c0 + [i, j, k])
-            o = d%cell_owner(cell_index(d, c))
+            o = cell_rank(d, c)
             if (o == me .or. any(ranks(1:nr) == o)) cycle
             nr = nr + 1
             ranks(nr) = o
@@ -154,11 +210,14 @@ contains
     d%rank = env%rank
     d%nranks = env%nranks
     d%n_balances = d%n_balances + 1
-    if (kind == DECOMP_SLAB) then
+    select case (kind)
+    case (DECOMP_SLAB)
       call balance_slabs(d, env, dim, n, x, w)
-    else
+    case (DECOMP_SFC)
+      call balance_curve(d, env, dim, n, x, w, cell)
+    case default
       call balance_cells(d, env, dim, n, x, w, cell)
-    end if
+    end select
   end subroutine domain_balance
 
   !> Slabs along the axis of largest global extent, each cut placed by
@@ -214,6 +273,136 @@ contains
     end do
     d%cuts(1:p - 1) = b
   end subroutine balance_slabs
+
+  !> Hilbert-curve pieces: the grid of cells of size `cell` from the global
+  !> lower corner, each particle's key that of its cell along the curve,
+  !> and the splitters placed by bisection on the keys where the global
+  !> work below reaches k/P of the total (whole-number weights: exact sums,
+  !> the same splitters on every rank).  A cell is never cut.
+  subroutine balance_curve(d, env, dim, n, x, w, cell)
+    type(domain_t), intent(inout) :: d
+    type(parallel_env_t), intent(in) :: env
+    integer, intent(in) :: dim, n
+    real(wp), intent(in) :: x(:, :), w(:), cell
+    real(wp) :: lo(3), hi(3), total
+    real(wp), allocatable :: cw(:), below(:)
+    integer(i8), allocatable :: keys(:), a(:), b(:), mid(:)
+    integer, allocatable :: idx(:)
+    integer :: k, i, p
+    p = env%nranks
+    call global_bounds(env, n, x, lo, hi)
+    d%cell = cell
+    d%origin = lo
+    d%nc = 1
+    do k = 1, dim
+      d%nc(k) = int((hi(k) - lo(k)) / cell) + 1
+    end do
+    d%bits = 1
+    do while (2**d%bits < maxval(d%nc))
+      d%bits = d%bits + 1
+    end do
+    if (dim * d%bits > 62) error stop 'balance_curve: more than 2^31 cells along an axis'
+    if (allocated(d%splitters)) deallocate(d%splitters)
+    allocate(d%splitters(0:p))
+    d%splitters(0) = 0
+    d%splitters(p) = 2_i8**(dim * d%bits)
+    if (p == 1) return
+    ! local keys sorted, with cumulative weights
+    allocate(keys(n), idx(n), cw(0:n))
+    do i = 1, n
+      keys(i) = hilbert_key(cell_coords(d, x(:, i)), d%bits, dim)
+    end do
+    idx = [(i, i = 1, n)]
+    call sort_index(keys, idx)
+    keys = keys(idx)
+    cw(0) = 0
+    do i = 1, n
+      cw(i) = cw(i - 1) + w(idx(i))
+    end do
+    total = par_sum(env, cw(n))
+    ! invariant: work below a(k) < k total/P <= work below b(k)
+    allocate(a(p - 1), b(p - 1), mid(p - 1), below(p - 1))
+    a = 0
+    b = d%splitters(p)
+    do while (any(b - a > 1))
+      mid = a + (b - a) / 2
+      do k = 1, p - 1
+        below(k) = cw(count_keys_below(keys, mid(k)))
+      end do
+      call par_sum_array(env, below)
+      do k = 1, p - 1
+        if (b(k) - a(k) <= 1) cycle
+        if (below(k) < total * k / p) then
+          a(k) = mid(k)
+        else
+          b(k) = mid(k)
+        end if
+      end do
+    end do
+    d%splitters(1:p - 1) = b
+  end subroutine balance_curve
+
+  !> Number of sorted keys strictly below v.
+  pure integer function count_keys_below(keys, v) result(c)
+    integer(i8), intent(in) :: keys(:), v
+    integer :: lo, hi, mid
+    lo = 0
+    hi = size(keys)
+    do while (lo < hi)
+      mid = (lo + hi + 1) / 2
+      if (keys(mid) < v) then
+        lo = mid
+      else
+        hi = mid - 1
+      end if
+    end do
+    c = lo
+  end function count_keys_below
+
+  !> The position of cell c (coordinates 0 .. 2^bits - 1 along each of dim
+  !> axes) along the Hilbert curve of the 2^bits grid: consecutive keys are
+  !> cells that share a face.  Skilling's construction (AIP Conf. Proc. 707,
+  !> 381, 2004): the coordinates are turned into the "transposed" index by
+  !> undoing the curve's rotations and reflections level by level and a Gray
+  !> code, whose bits are then interleaved, most significant first.
+  pure integer(i8) function hilbert_key(c, bits, dim) result(key)
+    integer, intent(in) :: c(3), bits, dim
+    integer :: xs(3), m, q, pm, i, t
+    xs = c
+    m = 2**(bits - 1)
+    q = m
+    do while (q > 1)
+      pm = q - 1
+      do i = 1, dim
+        if (iand(xs(i), q) /= 0) then
+          xs(1) = ieor(xs(1), pm)                       ! reflect
+        else
+          t = iand(ieor(xs(1), xs(i)), pm)              ! swap the low bits
+          xs(1) = ieor(xs(1), t)
+          xs(i) = ieor(xs(i), t)
+        end if
+      end do
+      q = q / 2
+    end do
+    do i = 2, dim
+      xs(i) = ieor(xs(i), xs(i - 1))
+    end do
+    t = 0
+    q = m
+    do while (q > 1)
+      if (iand(xs(dim), q) /= 0) t = ieor(t, q - 1)
+      q = q / 2
+    end do
+    do i = 1, dim
+      xs(i) = ieor(xs(i), t)
+    end do
+    key = 0
+    do q = bits - 1, 0, -1
+      do i = 1, dim
+        key = ior(ishft(key, 1), int(ibits(xs(i), q, 1), i8))
+      end do
+    end do
+  end function hilbert_key
 
   !> The bounding box of the particles of all ranks.
   subroutine global_bounds(env, n, x, lo, hi)
