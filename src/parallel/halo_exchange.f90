@@ -24,6 +24,9 @@ module halo_exchange
   type :: halo_t
     integer, allocatable :: send_start(:), send_idx(:), recv_start(:)
     integer :: n_sent = 0, n_received = 0
+    !> the refreshes' message buffers, sized at the build and reused (the
+    !> time loop allocates nothing for them)
+    real(wp), allocatable :: sbuf(:), rbuf(:)
   end type halo_t
 
 contains
@@ -132,17 +135,32 @@ contains
     call particles_unpack(parts, HALO_FIELDS, n, h%n_received, rbuf)
     call clear_halo_slots(parts, .not. FIELD_TABLE%halo, n, h%n_received)
     parts%n_halo = h%n_received
+    call reserve_buffer(h%sbuf, REFRESH_WORDS * h%n_sent)
+    call reserve_buffer(h%rbuf, REFRESH_WORDS * h%n_received)
   end subroutine halo_build
+
+  !> buf holds at least `words` reals (at least one), reallocated only to
+  !> grow or when it is more than twice too large.
+  subroutine reserve_buffer(buf, words)
+    real(wp), allocatable, intent(inout) :: buf(:)
+    integer, intent(in) :: words
+    if (allocated(buf)) then
+      if (size(buf) >= max(words, 1) .and. size(buf) <= 2 * max(words, 1)) return
+      deallocate(buf)
+    end if
+    allocate(buf(max(words, 1)))
+  end subroutine reserve_buffer
 
   !> Brings the halo copies of the fields refreshed before every right-hand
   !> side (positions, velocities, densities) up to date.
   subroutine halo_refresh(h, env, parts)
-    type(halo_t), intent(in) :: h
+    type(halo_t), intent(inout), target :: h
     type(parallel_env_t), intent(in) :: env
     type(particles_t), intent(inout) :: parts
-    real(wp), allocatable :: sbuf(:, :), rbuf(:, :)
+    real(wp), pointer, contiguous :: sbuf(:, :), rbuf(:, :)
     if (env%nranks == 1) return
-    allocate(sbuf(REFRESH_WORDS, max(1, h%n_sent)), rbuf(REFRESH_WORDS, max(1, h%n_received)))
+    sbuf(1:REFRESH_WORDS, 1:max(1, h%n_sent)) => h%sbuf
+    rbuf(1:REFRESH_WORDS, 1:max(1, h%n_received)) => h%rbuf
     call particles_pack(parts, REFRESH_FIELDS, h%send_idx, sbuf)
     call exchange(env, REFRESH_WORDS, h%send_start, sbuf, h%recv_start, rbuf)
     call particles_unpack(parts, REFRESH_FIELDS, parts%n, h%n_received, rbuf)
@@ -151,15 +169,17 @@ contains
   !> Copies a per-particle field a(ncomp, :) of the owned particles into the
   !> halo slots n+1.. of the other ranks (e.g. the density gradient).
   subroutine halo_refresh_field(h, env, n, a)
-    type(halo_t), intent(in) :: h
+    type(halo_t), intent(inout), target :: h
     type(parallel_env_t), intent(in) :: env
     integer, intent(in) :: n
     real(wp), intent(inout) :: a(:, :)
-    real(wp), allocatable :: sbuf(:, :), rbuf(:, :)
+    real(wp), pointer, contiguous :: sbuf(:, :), rbuf(:, :)
     integer :: k, nc
     if (env%nranks == 1) return
     nc = size(a, 1)
-    allocate(sbuf(nc, max(1, h%n_sent)), rbuf(nc, max(1, h%n_received)))
+    if (nc > REFRESH_WORDS) error stop 'halo_refresh_field: more components than the buffers hold'
+    sbuf(1:nc, 1:max(1, h%n_sent)) => h%sbuf
+    rbuf(1:nc, 1:max(1, h%n_received)) => h%rbuf
     do k = 1, h%n_sent
       sbuf(:, k) = a(:, h%send_idx(k))
     end do

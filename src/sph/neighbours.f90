@@ -85,11 +85,11 @@ contains
     real(wp), intent(in) :: x(3, ntot), radius, origin(3)
     integer(i8), intent(in) :: id(ntot)
     type(cell_set_t) :: cs
-    integer, allocatable :: tmp(:), keep(:)
+    integer, allocatable :: keep(:)
     real(wp), allocatable :: xc(:), yc(:), zc(:)
     logical, allocatable :: owned(:)
-    integer(i8) :: np, cap, row_max
-    integer :: a, s, c, ca, k, kk, nr, r, lo(14), hi(14)
+    integer(i8) :: np
+    integer :: a, s, c, ca, k, kk, nr, r, lo(14), hi(14), pass
     logical :: a_owned
     real(wp) :: r2max, xa, ya, za
     nl%radius = radius
@@ -113,58 +113,64 @@ contains
     end do
     if (allocated(nl%start)) deallocate(nl%start, nl%row)
     allocate(nl%start(ntot + 1), nl%row(ntot))
-    cap = max(nl%n_pairs + nl%n_pairs / 4, 16_i8 * ntot, 64_i8)
-    if (allocated(nl%nbr)) then
-      if (size(nl%nbr, kind=i8) < cap) deallocate(nl%nbr)
-    end if
-    if (.not. allocated(nl%nbr)) allocate(nl%nbr(cap))
-    np = 0
-    do kk = 1, ntot
-      a = cs%order(kk)
-      nl%row(kk) = a
-      nl%start(kk) = np + 1
-      a_owned = owned(kk)
-      xa = xc(kk)
-      ya = yc(kk)
-      za = zc(kk)
-      ca = cs%cell(a)
-      ! the candidates: the rest of its own cell (after it in id order), then
-      ! the cells after it, as canonical ranges; cells numbered in a row
-      ! (neighbours along x) merge into one range
-      nr = 1
-      lo(1) = kk + 1
-      hi(1) = cs%cstart(ca + 1) - 1
-      do s = 1, cs%n_after
-        c = cs%after(s, ca)
-        if (c > cs%n_cells) cycle
-        if (cs%cstart(c) == hi(nr) + 1) then
-          hi(nr) = cs%cstart(c + 1) - 1
-        else
-          nr = nr + 1
-          lo(nr) = cs%cstart(c)
-          hi(nr) = cs%cstart(c + 1) - 1
+    ! two passes over the same candidates: count each row's pairs, then
+    ! fill a list of exactly that size (one slot more: the branchless
+    ! compaction writes one past the last pair).  Growing the list instead
+    ! held the old and the new array at once, 2.5 times the list at a peak.
+    do pass = 1, 2
+      np = 0
+      do kk = 1, ntot
+        a = cs%order(kk)
+        a_owned = owned(kk)
+        xa = xc(kk)
+        ya = yc(kk)
+        za = zc(kk)
+        ca = cs%cell(a)
+        ! the candidates: the rest of its own cell (after it in id order),
+        ! then the cells after it, as canonical ranges; cells numbered in a
+        ! row (neighbours along x) merge into one range
+        nr = 1
+        lo(1) = kk + 1
+        hi(1) = cs%cstart(ca + 1) - 1
+        do s = 1, cs%n_after
+          c = cs%after(s, ca)
+          if (c > cs%n_cells) cycle
+          if (cs%cstart(c) == hi(nr) + 1) then
+            hi(nr) = cs%cstart(c + 1) - 1
+          else
+            nr = nr + 1
+            lo(nr) = cs%cstart(c)
+            hi(nr) = cs%cstart(c + 1) - 1
+          end if
+        end do
+        if (pass == 2) then
+          nl%row(kk) = a
+          nl%start(kk) = np + 1
         end if
+        do r = 1, nr
+          ! in range, and not a pair of two halo copies: a vector loop
+          do k = lo(r), hi(r)
+            keep(k) = merge(1, 0, (xa - xc(k))**2 + (ya - yc(k))**2 + (za - zc(k))**2 &
+                                  < r2max .and. (a_owned .or. owned(k)))
+          end do
+          if (pass == 1) then
+            np = np + sum(keep(lo(r):hi(r)))
+          else
+            ! branchless compaction, as the test is too random to predict
+            do k = lo(r), hi(r)
+              nl%nbr(np + 1) = cs%order(k)
+              np = np + keep(k)
+            end do
+          end if
+        end do
       end do
-      ! room for every candidate of this row (the branchless compaction
-      ! writes one slot past the last pair)
-      row_max = 1 + sum(max(hi(1:nr) - lo(1:nr) + 1, 0))
-      if (np + row_max > size(nl%nbr, kind=i8)) then
-        allocate(tmp(max(size(nl%nbr, kind=i8) * 3 / 2, np + row_max)))
-        tmp(1:np) = nl%nbr(1:np)
-        call move_alloc(tmp, nl%nbr)
+      if (pass == 1) then
+        if (allocated(nl%nbr)) then
+          if (size(nl%nbr, kind=i8) < np + 1 .or. size(nl%nbr, kind=i8) > np + np / 8 + 64) &
+            deallocate(nl%nbr)
+        end if
+        if (.not. allocated(nl%nbr)) allocate(nl%nbr(np + 1))
       end if
-      do r = 1, nr
-        ! in range, and not a pair of two halo copies: a vector loop
-        do k = lo(r), hi(r)
-          keep(k) = merge(1, 0, (xa - xc(k))**2 + (ya - yc(k))**2 + (za - zc(k))**2 < r2max &
-                                .and. (a_owned .or. owned(k)))
-        end do
-        ! branchless compaction, as the test is too random to predict
-        do k = lo(r), hi(r)
-          nl%nbr(np + 1) = cs%order(k)
-          np = np + keep(k)
-        end do
-      end do
     end do
     nl%start(ntot + 1) = np + 1
     nl%n_pairs = np
