@@ -16,7 +16,7 @@ module simulation
                        DIV_RENORMALISED
   use solver, only: solver_t, solver_init, solver_step, solver_evaluate, solver_time_step, &
                     solver_flow_fields, solver_sync_halo, step_history_t, solver_history, &
-                    solver_restore
+                    solver_restore, solver_timing_t
   use decomposition, only: BALANCE_PARTICLES, BALANCE_PAIRS, decomp_partners
   use integrators, only: SCHEME_RK4, SCHEME_PC2
   use diagnostics, only: kinetic_energy, total_mass, total_momentum, probe_pressure, &
@@ -182,9 +182,12 @@ contains
     wall0 = wall_time()
     wall_last = wall0
     t0_run = t
-    ! traffic per step: the set-up's migration and first halo not counted
+    ! traffic and time per step: the set-up's migration, first halo and
+    ! first evaluation not counted
     s%dc%words_sent = 0
     s%dc%messages_sent = 0
+    s%dc%comm_time = 0
+    s%timing = solver_timing_t()
     step0 = step
     iter_max = 0
     done = t >= t_end - tol .or. (cfg%run%max_steps > 0 .and. step >= cfg%run%max_steps)
@@ -674,8 +677,9 @@ contains
     integer, intent(in) :: steps
     real(wp), intent(in) :: wall
     real(wp) :: comm, mem_max, mem_total, listed, in_range, halo, partners, partners_max, &
-                words, words_max, messages, pairs
+                words, words_max, messages, pairs, t(5), rate
     integer(i8) :: n_listed, n_in_range
+    integer :: k
     comm = par_max(env, s%dc%comm_time)
     ! what the decomposition costs in copies and messages (doc/parallel.md)
     halo = par_sum(env, real(s%parts%n_halo, wp)) / max(run%n_global, 1_i8)
@@ -687,6 +691,12 @@ contains
     ! listed pairs with at least one owned particle: those across a cut are
     ! held (and evaluated) on both ranks
     pairs = par_sum(env, real(s%lm%nl%n_pairs, wp)) / max(run%n_global, 1_i8)
+    ! where the time went: the largest share over the ranks of each part
+    t = [s%timing%pairs, s%timing%rebuild, s%timing%check, s%dc%comm_time, s%timing%integrate]
+    do k = 1, 5
+      t(k) = par_max(env, t(k)) / max(wall, 1e-9_wp)
+    end do
+    rate = par_sum(env, s%timing%pair_visits / max(s%timing%pairs, 1e-9_wp)) / env%nranks
     mem_max = par_max(env, peak_memory_mb())
     mem_total = par_sum(env, peak_memory_mb())
     call neighbour_counts(s%lm%nl, s%parts%n, s%parts%x, s%rhs%kernel%support**2, n_listed, &
@@ -704,6 +714,10 @@ contains
       ' h), peak memory ', mem_max, ' MB per rank (max), ', mem_total, ' MB in all'
     write(output_unit, '(a,f8.1,a,f8.1,a)') '  neighbours per particle: ', listed, &
       ' in the list, ', in_range, ' within the kernel support'
+    write(output_unit, '(a,5(f5.1,a),es10.3,a)') '  time (largest rank): pair passes ', &
+      100 * t(1), ' %, list rebuilds ', 100 * t(2), ' %, validity test ', 100 * t(3), &
+      ' %, communication ', 100 * t(4), ' %, integration ', 100 * t(5), ' %; ', rate, &
+      ' listed pairs per second per rank in the passes'
 
     if (env%nranks > 1) write(output_unit, '(a,f6.3,a,f6.3,a,i0,a,i0,a,f5.1,a)') &
       '  imbalance (max/mean particles) mean ', run%imb_sum / max(run%imb_n, 1), ', max ', &

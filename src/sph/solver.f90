@@ -12,7 +12,7 @@ module solver
   use eos, only: eos_t, eos_pressure
   use fluid_rhs, only: rhs_params_t, rhs_work_t, rhs_renormalisation, rhs_evaluate, rhs_shift, &
                        DIFF_ANTUONO, DIFF_NONE, VISC_NONE, PGRAD_HIGHER_ORDER, DIV_RENORMALISED
-  use parallel_env, only: parallel_env_t, par_max
+  use parallel_env, only: parallel_env_t, par_max, wall_time
   use decomposition, only: decomposition_t, decomp_redistribute, decomp_halo_build, &
                            decomp_refresh, decomp_refresh_field, decomp_measure, BALANCE_PAIRS
   use integrators, only: integrator_t, integrator_reserve, integrator_stages, integrator_advance
@@ -20,7 +20,7 @@ module solver
   private
   public :: solver_t, solver_init, solver_step, solver_evaluate, solver_rebuild, solver_flow_fields, &
             solver_time_step, solver_sync_halo
-  public :: step_history_t, solver_history, solver_restore
+  public :: step_history_t, solver_history, solver_restore, solver_timing_t
 
   !> (T3) the diffusive limit dt <= CFL_DIFF h/(delta c0), below the measured
   !> onset of instability (delta c0 dt/h: stable at 0.33, unstable at 0.45
@@ -33,6 +33,16 @@ module solver
   !> largest acceleration of the last right-hand side (both enter the
   !> validity test) and whether a rebuild is due.  A checkpoint stores it,
   !> so that the run it continues goes on exactly as without the stop.
+  !> Where this rank's time goes (wall seconds since the last reset): the
+  !> pair passes of the right-hand sides (first pass and main pass), the list
+  !> rebuilds (re-balancing, sort, list build; their messages are in the
+  !> decomposition's comm_time), the validity test, the integrator's
+  !> updates; and the listed pairs the passes visited.
+  type :: solver_timing_t
+    real(wp) :: pairs = 0, rebuild = 0, check = 0, integrate = 0
+    real(wp) :: pair_visits = 0
+  end type solver_timing_t
+
   type :: step_history_t
     real(wp) :: skin = 0
     real(wp) :: a_max = 0
@@ -71,6 +81,7 @@ module solver
     !> the Antuono diffusion, whose density gradient changes with rho
     logical :: renormalise_per_step = .false.
     logical :: first_stage = .true.            !< the evaluation is a step's first
+    type(solver_timing_t) :: timing
   end type solver_t
 
 contains
@@ -150,7 +161,7 @@ contains
   !> the list radius and rebuilds the neighbour list (list_build); the owned
   !> positions become the reference of the validity test.  With resume, x
   !> holds the reference positions and xref the current ones, which trade
-  !> places after the build (solver_resume).
+  !> places after the build (solver_init with a history to resume).
   subroutine solver_rebuild(s, env, resume)
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
@@ -206,6 +217,7 @@ contains
     type(parallel_env_t), intent(in) :: env
     integer :: ntot
     logical :: antuono, corrected, first_pass, fresh
+    real(wp) :: t0, c0
     antuono = s%rhs%diffusion == DIFF_ANTUONO
     corrected = s%rhs%pressure_gradient == PGRAD_HIGHER_ORDER
     first_pass = antuono .or. corrected .or. s%rhs%divergence == DIV_RENORMALISED
@@ -215,6 +227,10 @@ contains
       call decomp_refresh(s%dc, env, pt)
       ntot = pt%n + pt%n_halo
       pt%p(1:ntot) = eos_pressure(s%eos, pt%rho(1:ntot))
+      t0 = wall_time()
+      c0 = s%dc%comm_time
+      s%timing%pair_visits = s%timing%pair_visits + real(s%lm%nl%n_pairs, wp) * &
+                             merge(2, 1, first_pass .and. fresh)
       if (first_pass .and. .not. fresh) then
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
                           s%lm%nl, s%drho, s%du, s%lambda(1, :), s%lmat, s%rw)
@@ -235,6 +251,8 @@ contains
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
                           s%lm%nl, s%drho, s%du, work=s%rw)
       end if
+      ! the passes, less the exchanges between them (in comm_time)
+      s%timing%pairs = s%timing%pairs + (wall_time() - t0) - (s%dc%comm_time - c0)
       s%a_local = 0
       if (pt%n > 0) s%a_local = sqrt(maxval(sum(s%du(:, 1:pt%n)**2, dim=1)))
     end associate
@@ -325,10 +343,18 @@ contains
     real(wp), intent(out) :: dt
     integer :: n, stage
     logical :: rebuild
+    real(wp) :: t0, c0
+    t0 = wall_time()
     call list_check(s%lm, env, s%parts%dim, s%parts%n, s%parts%xref, s%parts%x, s%parts%u, &
                     s%a_local, s%parts%id, s%rhs%kernel%support, s%cfl * s%rhs%kernel%h, &
                     s%rhs%c0, rebuild)
-    if (rebuild) call solver_rebuild(s, env)
+    s%timing%check = s%timing%check + (wall_time() - t0)
+    if (rebuild) then
+      t0 = wall_time()
+      c0 = s%dc%comm_time
+      call solver_rebuild(s, env)
+      s%timing%rebuild = s%timing%rebuild + (wall_time() - t0) - (s%dc%comm_time - c0)
+    end if
     n = s%parts%n      ! migration may have changed it
 
     s%first_stage = .true.
@@ -340,8 +366,10 @@ contains
 
     do stage = 1, integrator_stages(s%integ)
       if (stage > 1) call solver_evaluate(s, env)
+      t0 = wall_time()
       call integrator_advance(s%integ, stage, dt, n, s%parts%x, s%parts%u, s%parts%rho, &
                               s%du, s%drho)
+      s%timing%integrate = s%timing%integrate + (wall_time() - t0)
     end do
     s%parts%p(1:n) = eos_pressure(s%eos, s%parts%rho(1:n))
     if (s%shifting) call shift_particles(s, env, dt)

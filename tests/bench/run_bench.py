@@ -52,6 +52,17 @@ CASES = {
     # the renormalised operators: a first pass and L_i g per pair side
     "ellipsoid3d_renormalised": ("input/ellipsoid3d.nml", 1000000, 6, COMMON_3D + RENORMALISED),
 }
+# Floating-point operations of one pair, counted in src/sph/pair_rows.inc and
+# fluid_rhs (multiplications, additions, divisions and square roots as one
+# each): per listed pair the distance test (8); per pair within the support
+# the kernel (10) and the body: 54 with the standard operators, 140 with the
+# renormalised divergence and the higher-order gradient; the first pass
+# (M_i, lambda_i) 35.
+FLOPS_LISTED = 8
+FLOPS_IN_RANGE = {"standard": 64, "renormalised": 150, "first_pass": 45}
+# double-precision operations per cycle and core: two 512-bit FMA units
+PEAK_FLOPS_PER_CYCLE = 32
+
 QUICK = {"circle2d": 20000, "ellipsoid3d": 100000, "ellipsoid3d_200k": 50000,
          "ellipsoid3d_renormalised": 100000}
 
@@ -103,9 +114,45 @@ def run(case, n, steps, extra, ranks, exe=None, cwd=ROOT, tag=""):
     im = re.search(r"imbalance \(max/mean particles\) mean\s+([\d.]+).*communication\s+([\d.]+) %",
                    txt)
     r["imb"], r["comm"] = (float(im.group(1)), float(im.group(2))) if im else (1.0, 0.0)
+    tm = re.search(r"time \(largest rank\): pair passes\s+([\d.]+) %, list rebuilds\s+([\d.]+) %, "
+                   r"validity test\s+([\d.]+) %, communication\s+([\d.]+) %, integration\s+"
+                   r"([\d.]+) %;\s+([\d.E+-]+) listed pairs", txt)
+    if tm:
+        r["t_pairs"], r["t_build"], r["t_check"], r["t_comm"], r["t_integ"] = \
+            (float(tm.group(k)) for k in range(1, 6))
+        r["pair_rate"] = float(tm.group(6))
     r["rhs_s"] = r["rhs"] / r["loop"]
     r["updates"] = r["n"] * r["rhs"] / r["loop"]
     return r
+
+
+def clock_ghz():
+    """The cores' clock from /proc/cpuinfo (mean of the cpu MHz lines)."""
+    try:
+        mhz = [float(l.split(":")[1]) for l in open("/proc/cpuinfo") if l.startswith("cpu MHz")]
+        return sum(mhz) / len(mhz) / 1e3
+    except (OSError, ValueError, ZeroDivisionError):
+        return float("nan")
+
+
+def time_line(case, r, ghz):
+    """Where the time goes, pairs per second, cycles per pair and the
+    fraction of the peak floating-point rate in the pair passes."""
+    if "pair_rate" not in r:
+        return None
+    extra = CASES[case][3]
+    renorm = "numerics.divergence=renormalised" in extra
+    in_range = r["pairs"] / r["listed"]
+    if renorm:   # the first pass and the main pass each visit the list
+        flops = FLOPS_LISTED + in_range * (FLOPS_IN_RANGE["renormalised"]
+                                           + FLOPS_IN_RANGE["first_pass"]) / 2
+    else:
+        flops = FLOPS_LISTED + in_range * FLOPS_IN_RANGE["standard"]
+    cycles = ghz * 1e9 / r["pair_rate"]
+    peak = r["pair_rate"] * flops / (ghz * 1e9 * PEAK_FLOPS_PER_CYCLE)
+    return (f"| {case} | {r['n']} | {r['ranks']} | {r['t_pairs']:.1f} | {r['t_build']:.1f} | "
+            f"{r['t_check']:.1f} | {r['t_comm']:.1f} | {r['t_integ']:.1f} | "
+            f"{r['pair_rate']:.3g} | {cycles:.1f} | {flops:.0f} | {100 * peak:.1f} |")
 
 
 def main():
@@ -133,6 +180,7 @@ def main():
                   "(support / list) | peak MB/rank | MB total | imbalance | comm % | efficiency |",
                   "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     print("\n".join(lines), flush=True)
+    time_lines = []
     for case in a.cases.split(","):
         inp, n, steps, extra = CASES[case]
         if a.quick:
@@ -150,6 +198,10 @@ def main():
                         f" {max(r['mem'] for r in old):.0f} | {max(r['mem'] for r in new):.0f} |")
             else:
                 r = run(case, n, steps, extra, p)
+                r["ranks"] = p
+                tl = time_line(case, r, clock_ghz())
+                if tl:
+                    time_lines.append(tl)
                 if base is None:
                     base = r["s_step"] * p
                 eff = base / (r["s_step"] * p)
@@ -159,6 +211,17 @@ def main():
                         f" {r['comm']:.1f} | {eff:.2f} |")
             lines.append(line)
             print(line, flush=True)
+    if time_lines:
+        head2 = ["", f"Where the time goes (% of the loop's wall time, largest rank) and the pair "
+                 f"passes' rate: listed pairs per second per rank (one rank per core), cycles per "
+                 f"listed pair at {clock_ghz():.2f} GHz, floating-point operations per listed "
+                 f"pair (counted), fraction of the peak ({PEAK_FLOPS_PER_CYCLE} per cycle and "
+                 f"core)", "",
+                 "| case | N | ranks | pair passes | list rebuilds | validity test | "
+                 "communication | integration | pairs/s per core | cycles/pair | flops/pair | "
+                 "% of peak |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+        lines += head2 + time_lines
+        print("\n".join(head2 + time_lines))
     out = ROOT / "runs" / "bench" / ("bench_baseline.md" if baseline else "bench.md")
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text("\n".join(lines) + "\n")
