@@ -28,11 +28,6 @@ module solver
   !> defaults (delta = 0.1 allows 3 h/c0, the largest acoustic step)
   real(wp), parameter :: CFL_DIFF = 0.3_wp
 
-  !> What a step takes from the steps before it besides the particles and
-  !> their reference positions (particles_t%xref): the list's skin, the
-  !> largest acceleration of the last right-hand side (both enter the
-  !> validity test) and whether a rebuild is due.  A checkpoint stores it,
-  !> so that the run it continues goes on exactly as without the stop.
   !> Where this rank's time goes (wall seconds since the last reset): the
   !> pair passes of the right-hand sides (first pass and main pass), the list
   !> rebuilds (re-balancing, sort, list build; their messages are in the
@@ -43,6 +38,11 @@ module solver
     real(wp) :: pair_visits = 0
   end type solver_timing_t
 
+  !> What a step takes from the steps before it besides the particles and
+  !> their reference positions (particles_t%xref): the list's skin, the
+  !> largest acceleration of the last right-hand side (both enter the
+  !> validity test) and whether a rebuild is due.  A checkpoint stores it,
+  !> so that the run it continues goes on exactly as without the stop.
   type :: step_history_t
     real(wp) :: skin = 0
     real(wp) :: a_max = 0
