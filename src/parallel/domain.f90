@@ -47,75 +47,34 @@ contains
   pure integer function domain_owner(d, x) result(r)
     type(domain_t), intent(in) :: d
     real(wp), intent(in) :: x(3)
-    integer :: lo, hi, mid
     if (d%nranks == 1) then
       r = 0
     else if (d%kind == DECOMP_SLAB) then
-      ! the last r with cuts(r) <= x(axis)
-      lo = 0
-      hi = d%nranks - 1
-      do while (lo < hi)
-        mid = (lo + hi + 1) / 2
-        if (d%cuts(mid) <= x(d%axis)) then
-          lo = mid
-        else
-          hi = mid - 1
-        end if
-      end do
-      r = lo
+      r = last_cut(d, x(d%axis), .false.)
     else
       r = cell_rank(d, cell_coords(d, x))
     end if
   end function domain_owner
 
-  !> The last r in 0..P-1 with cuts(r) <= v (strict: cuts(r) < v; 0 if none).
+  !> The last r in 0..P-1 with cuts(r) <= v (strict: cuts(r) < v): the
+  !> number of inner cuts below v, as cuts(0) = -huge and the cuts ascend.
   pure integer function last_cut(d, v, strict) result(r)
     type(domain_t), intent(in) :: d
     real(wp), intent(in) :: v
     logical, intent(in) :: strict
-    integer :: lo, hi, mid
-    logical :: below
-    lo = 0
-    hi = d%nranks - 1
-    do while (lo < hi)
-      mid = (lo + hi + 1) / 2
-      if (strict) then
-        below = d%cuts(mid) < v
-      else
-        below = d%cuts(mid) <= v
-      end if
-      if (below) then
-        lo = mid
-      else
-        hi = mid - 1
-      end if
-    end do
-    r = lo
+    r = count_below(d%cuts(1:d%nranks - 1), v, inclusive=.not. strict)
   end function last_cut
 
   !> The rank that owns cell c (cell map or curve).
   pure integer function cell_rank(d, c) result(r)
     type(domain_t), intent(in) :: d
     integer, intent(in) :: c(3)
-    integer(i8) :: key
-    integer :: lo, hi, mid
     if (d%kind == DECOMP_METIS) then
       r = d%cell_owner(cell_index(d, c))
-      return
+    else
+      ! the last r with splitters(r) <= key: the inner splitters below key + 1
+      r = count_keys_below(d%splitters(1:d%nranks - 1), hilbert_key(c, d%bits, d%dim) + 1)
     end if
-    ! the last r with splitters(r) <= key
-    key = hilbert_key(c, d%bits, d%dim)
-    lo = 0
-    hi = d%nranks - 1
-    do while (lo < hi)
-      mid = (lo + hi + 1) / 2
-      if (d%splitters(mid) <= key) then
-        lo = mid
-      else
-        hi = mid - 1
-      end if
-    end do
-    r = lo
   end function cell_rank
 
   !> The ranks other than owner(x) that own some point within `radius` of
@@ -421,15 +380,24 @@ contains
     end do
   end subroutine global_bounds
 
-  !> Number of sorted values strictly below v.
-  pure integer function count_below(xs, v) result(c)
+  !> Number of sorted values strictly below v (inclusive: at most v).
+  pure integer function count_below(xs, v, inclusive) result(c)
     real(wp), intent(in) :: xs(:), v
+    logical, intent(in), optional :: inclusive
     integer :: lo, hi, mid
+    logical :: incl, below
+    incl = .false.
+    if (present(inclusive)) incl = inclusive
     lo = 0
     hi = size(xs)
     do while (lo < hi)
       mid = (lo + hi + 1) / 2
-      if (xs(mid) < v) then
+      if (incl) then
+        below = xs(mid) <= v
+      else
+        below = xs(mid) < v
+      end if
+      if (below) then
         lo = mid
       else
         hi = mid - 1
