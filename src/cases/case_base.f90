@@ -11,6 +11,7 @@ module case_base
   use eos, only: eos_t
   use kernels, only: kernel_t
   use particles, only: particles_t, particles_permute
+  use shares, only: share_range
   use parallel_env, only: parallel_env_t
   implicit none
   private
@@ -183,14 +184,12 @@ contains
   subroutine keep_share(parts, share)
     type(particles_t), intent(inout) :: parts
     integer, intent(in) :: share(2)
-    integer :: lo, hi, k
-    integer(i8) :: ntot
+    integer(i8) :: lo, hi
+    integer :: k
     if (share(2) == 1) return
-    ntot = parts%n
-    lo = int(ntot * share(1) / share(2)) + 1
-    hi = int(ntot * (share(1) + 1) / share(2))
-    call particles_permute(parts, [(k, k = lo, hi)])
-    parts%n = hi - lo + 1
+    call share_range(int(parts%n, i8), share(1), share(2), lo, hi)
+    call particles_permute(parts, [(k, k = int(lo), int(hi))])
+    parts%n = int(hi - lo + 1)
   end subroutine keep_share
 
 end module case_base

@@ -18,6 +18,7 @@
 !> others: the set-up is distributed, no rank holds all particles.
 module placement
   use kinds, only: wp, pi, i8
+  use shares, only: share_range
   implicit none
   private
   public :: place_ball, ball_spacing, PLACE_RINGS, PLACE_LATTICE, PLACE_PACKED, hash_uniform, &
@@ -57,6 +58,7 @@ contains
     integer, intent(in), optional :: share(2)
     integer, intent(out), optional :: first, n_total
     integer :: total, lo, hi
+    integer(i8) :: first8, last8
     if (kind == PLACE_RINGS .and. dim == 2) then
       total = rings_2d_count(radius, dx)
     else if (kind == PLACE_RINGS) then
@@ -67,8 +69,9 @@ contains
     lo = 1
     hi = total
     if (present(share)) then
-      lo = int(int(total, i8) * share(1) / share(2)) + 1
-      hi = int(int(total, i8) * (share(1) + 1) / share(2))
+      call share_range(int(total, i8), share(1), share(2), first8, last8)
+      lo = int(first8)
+      hi = int(last8)
     end if
     allocate(x(3, hi - lo + 1), vol(hi - lo + 1))
     x = 0

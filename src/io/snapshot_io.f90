@@ -22,6 +22,7 @@ module snapshot_io
   use, intrinsic :: iso_c_binding, only: c_ptr, c_loc, c_char
   use, intrinsic :: iso_fortran_env, only: int32
   use kinds, only: wp, i8
+  use shares, only: share_range
   use mpi_f08, only: MPI_Comm, MPI_Comm_rank, MPI_Comm_size, MPI_Exscan, MPI_Allreduce, &
                      MPI_INTEGER8, MPI_INTEGER, MPI_SUM, MPI_MAX, MPI_INFO_NULL, MPI_IN_PLACE
   use hdf5, only: hid_t, hsize_t, size_t, h5open_f, &
@@ -450,10 +451,9 @@ contains
         exit io
       end if
       snap%n_global = int(dims(2), i8)
-      first = (int(rank, i8) * snap%n_global) / nranks
-      last = (int(rank + 1, i8) * snap%n_global) / nranks
-      snap%offset = first
-      snap%n_local = int(last - first)
+      call share_range(snap%n_global, rank, nranks, first, last)
+      snap%offset = first - 1
+      snap%n_local = int(last - first + 1)
       if (headers) snap%n_local = 0
       associate (n => snap%n_local, d => snap%dim)
         allocate(snap%id(n), snap%x(d, n), snap%u(d, n), snap%rho(n), snap%p(n), snap%m(n))
