@@ -30,7 +30,7 @@ module simulation
   use timeseries, only: timeseries_t, timeseries_init, timeseries_add, timeseries_flush, &
                         timeseries_load
   use restart, only: restart_read, restart_index_history, snapshot_number, restart_info_t, &
-                     ATTR_ACCEL_MAX, ATTR_LIST_SKIN, ATTR_FORCE_REBUILD, ATTR_SNAPSHOTS
+                     history_attributes
   use signals, only: signals_install, signals_caught, signal_name
   use domain, only: DECOMP_SLAB, DECOMP_METIS, DECOMP_SFC
   use packing, only: packing_params_t, packing_report_t, pack_ball
@@ -460,8 +460,7 @@ contains
     ok = .true.
     if (cfg%output%snapshots) then
       ! the step history a restart from this snapshot needs (restart.f90)
-      names = [character(len=32) :: ATTR_ACCEL_MAX]
-      values = [par_max(env, s%a_local)]
+      call history_attributes(restart_info_t(accel_max=par_max(env, s%a_local)), names, values)
       call solver_flow_fields(s, flow%lambda, flow%omega)
       call run%problem%fields(t, s%parts, flow, f)
       nv = size(f%vector_names)
@@ -512,15 +511,17 @@ contains
     type(snapshot_field_t), allocatable :: extra(:), fields(:)
     type(step_history_t) :: h
     character(len=:), allocatable :: errmsg
+    character(len=32), allocatable :: names(:)
+    real(wp), allocatable :: values(:)
     h = solver_history(s, env)
+    call history_attributes(restart_info_t(checkpoint=.true., accel_max=h%a_max, &
+                                           list_skin=h%skin, force_rebuild=h%force_rebuild, &
+                                           snapshots_written=run%n_snapshots), names, values)
     allocate(extra(0))
     call particles_snapshot_fields(s%parts, extra, fields, checkpoint=.true.)
     call snapshot_write(env%comm, join_path(run%dir, CHECKPOINT_FILE), t, step, s%parts%dim, &
                         trim(run%problem%name), s%parts%n, fields, ok, errmsg, &
-                        attr_names=[character(len=32) :: ATTR_ACCEL_MAX, ATTR_LIST_SKIN, &
-                                    ATTR_FORCE_REBUILD, ATTR_SNAPSHOTS], &
-                        attr_values=[h%a_max, h%skin, merge(1.0_wp, 0.0_wp, h%force_rebuild), &
-                                     real(run%n_snapshots, wp)])
+                        attr_names=names, attr_values=values)
     if (ok) call timeseries_flush(run%ts, ok, errmsg)
     if (.not. ok .and. env%rank == 0) write(error_unit, '(a)') 'sph: error: ' // errmsg
   end subroutine write_checkpoint

@@ -12,8 +12,8 @@ module restart
   use snapshot_io, only: snapshot_t, snapshot_read, snapshot_filename, xdmf_index_t, xdmf_add
   implicit none
   private
-  public :: restart_read, restart_index_history, snapshot_number, restart_info_t
-  public :: ATTR_ACCEL_MAX, ATTR_LIST_SKIN, ATTR_FORCE_REBUILD, ATTR_SNAPSHOTS
+  public :: restart_read, restart_index_history, snapshot_number, restart_info_t, &
+            history_attributes
 
   !> Root attributes of the step history (solver: step_history_t): every
   !> snapshot stores the largest acceleration of the last right-hand side,
@@ -103,6 +103,23 @@ contains
     t = snap%time
     step = snap%step
   end subroutine restart_read
+
+  !> The root attributes that carry info into a file, as restart_read reads
+  !> them back: the largest acceleration alone for a snapshot, the whole
+  !> history for a checkpoint (info%checkpoint).
+  subroutine history_attributes(info, names, values)
+    type(restart_info_t), intent(in) :: info
+    character(len=32), allocatable, intent(out) :: names(:)
+    real(wp), allocatable, intent(out) :: values(:)
+    names = [character(len=32) :: ATTR_ACCEL_MAX]
+    values = [info%accel_max]
+    if (info%checkpoint) then
+      names = [character(len=32) :: names, ATTR_LIST_SKIN, ATTR_FORCE_REBUILD, &
+               ATTR_SNAPSHOTS]
+      values = [values, info%list_skin, merge(1.0_wp, 0.0_wp, info%force_rebuild), &
+                real(info%snapshots_written, wp)]
+    end if
+  end subroutine history_attributes
 
   !> The number k of a snapshot file name snap_k.h5 (-1 for another name).
   integer function snapshot_number(path) result(k)
