@@ -292,6 +292,7 @@ contains
     s%rhs%c0 = cfg%physics%c0
     s%rhs%rho0 = cfg%physics%rho0
     s%rhs%alpha = cfg%numerics%alpha
+    s%rhs%reconstruct = cfg%numerics%visc_reconstruction
     s%rhs%delta = cfg%numerics%delta
     s%rhs%tensile_eps = merge(cfg%numerics%tensile_eps, 0.0_wp, cfg%numerics%tensile)
     s%rhs%tensile_n = cfg%numerics%tensile_n

@@ -155,6 +155,13 @@ module input_params
           // 'monaghan, or none'), &
     var_t(G_NUMERICS, 'alpha', T_REAL, SCALAR, LO_GE, HI_LE, 0.0_wp, 1.0_wp, CH_NONE, '', &
           'artificial viscosity coefficient'), &
+    var_t(G_NUMERICS, 'visc_reconstruction', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, &
+          0.0_wp, 0.0_wp, CH_NONE, '', 'viscosity on u_ji less its linear part ' // &
+          'from the strain rates of i and j: none on a linear velocity field', &
+          doc='the viscosity acts on u_ji less its linear part, reconstructed from the ' // &
+              'renormalised strain rates of i and j ([doc/theory.md](theory.md) R1): ' // &
+              'zero on any linear velocity field, also at the free surface; one more ' // &
+              'pass over the pairs'), &
     var_t(G_NUMERICS, 'alpha_exponent', T_REAL, SCALAR, LO_GE, HI_LE, -2.0_wp, 2.0_wp, &
           CH_NONE, '', 'with particles.n_ref > 0: alpha = alpha (n/n_ref)^(alpha_exponent/dim)', &
           doc='with `particles.n_ref > 0`: alpha = `alpha` s^`alpha_exponent` (-1: alpha ' // &
@@ -310,6 +317,7 @@ module input_params
     character(len=NAME_LEN) :: viscosity = 'delta'
     real(wp) :: alpha = 0.01_wp
     real(wp) :: alpha_exponent = 0                       !< resolution scaling of alpha
+    logical :: visc_reconstruction = .false.        !< (R1)
     character(len=NAME_LEN) :: diffusion = 'molteni'
     real(wp) :: delta = 0.1_wp
     real(wp) :: delta_exponent = 0                       !< resolution scaling of delta
@@ -476,12 +484,12 @@ contains
     character(len=NAME_LEN) :: pressure_gradient, divergence, renormalise
     real(wp) :: cfl, cfl_force, cfl_visc, alpha, alpha_exponent, delta, delta_exponent, skin
     real(wp) :: tensile_eps
-    logical :: tensile, shifting
+    logical :: tensile, shifting, visc_reconstruction
     integer :: tensile_n
     namelist /numerics/ kernel, integrator, cfl, cfl_force, cfl_visc, viscosity, alpha, &
                         alpha_exponent, diffusion, delta, delta_exponent, skin, tensile, &
                         tensile_eps, tensile_n, pressure_gradient, divergence, shifting, &
-                        renormalise
+                        renormalise, visc_reconstruction
     kernel = p%kernel
     integrator = p%integrator
     cfl = p%cfl
@@ -490,6 +498,7 @@ contains
     viscosity = p%viscosity
     alpha = p%alpha
     alpha_exponent = p%alpha_exponent
+    visc_reconstruction = p%visc_reconstruction
     diffusion = p%diffusion
     delta = p%delta
     delta_exponent = p%delta_exponent
@@ -511,6 +520,7 @@ contains
     p%viscosity = viscosity
     p%alpha = alpha
     p%alpha_exponent = alpha_exponent
+    p%visc_reconstruction = visc_reconstruction
     p%diffusion = diffusion
     p%delta = delta
     p%delta_exponent = delta_exponent
@@ -654,6 +664,8 @@ contains
       text = real_str(p%alpha)
     case ('alpha_exponent')
       text = real_str(p%alpha_exponent)
+    case ('visc_reconstruction')
+      text = logical_text(p%visc_reconstruction)
     case ('diffusion')
       text = quoted(p%diffusion)
     case ('delta')

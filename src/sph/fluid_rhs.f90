@@ -19,6 +19,7 @@ module fluid_rhs
   implicit none
   private
   public :: rhs_params_t, rhs_density_gradient, rhs_renormalisation, rhs_evaluate, rhs_shift, &
+            rhs_strain_rate, &
             LAMBDA_MIN, LAMBDA_SURFACE, LAMBDA_NEAR, rhs_work_t, rhs_work_reserve, &
             in_range_soa, lane_total, &
             row_capacity, LANES
@@ -60,9 +61,10 @@ module fluid_rhs
   !> place (two cache lines): u (1:3), rho, p, V, 1/rho, the pressure and
   !> weight of (H1), L (R_L + 1:R_L + 6) and R of (E7); the standard
   !> operators read only the first REC_SHORT (one cache line)
-  integer, parameter :: REC_SHORT = 8, REC_LONG = 16
+  !> (R1) the reconstructed viscosity adds the strain rate S (R_S + 1:R_S + 6)
+  integer, parameter :: REC_SHORT = 8, REC_LONG = 16, REC_RECON = 24
   integer, parameter :: R_RHO = 4, R_P = 5, R_VOL = 6, R_IRHO = 7, R_PF = 8, R_WC = 9, R_L = 9, &
-                        R_RT = 16
+                        R_RT = 16, R_S = 16
 
   !> The physical and numerical constants of the right-hand side.
   type :: rhs_params_t
@@ -71,6 +73,10 @@ module fluid_rhs
     real(wp) :: c0 = 10, rho0 = 1
     integer :: viscosity = VISC_DELTA
     real(wp) :: alpha = 0.01_wp
+    !> (R1) the viscosity acts on u_ji less its linear part, reconstructed
+    !> from the strain rates of i and j (rhs_strain_rate): zero for any
+    !> linear velocity field, also at the free surface
+    logical :: reconstruct = .false.
     integer :: diffusion = DIFF_MOLTENI
     real(wp) :: delta = 0.1_wp
     !> (E7) tensile instability control, on when tensile_eps > 0; tensile_dx
@@ -287,6 +293,115 @@ contains
                xij(1) * xij(2), xij(1) * xij(3), xij(2) * xij(3)]
   end function moment_term
 
+  !> (R1) The strain rate of the owned particles from the renormalised
+  !> velocity gradient (E3):
+  !>   G_i = (L_i Sum_j (u_a,j - u_a,i) g V_j)_a,   S_i = (G_i + G_i^T)/2,
+  !> exact for linear velocity fields wherever L_i is M_i^-1; strain holds
+  !> S as (xx, yy, zz, xy, xz, yz).  lmat is L of rhs_renormalisation.
+  !> Halo slots are zero: their owners compute them (exchange S).
+  subroutine rhs_strain_rate(prm, n, ntot, x, u, rho, m, nl, lmat, strain, work)
+    type(rhs_params_t), intent(in) :: prm
+    integer, intent(in) :: n, ntot
+    real(wp), intent(in) :: x(3, ntot), u(3, ntot), rho(ntot), m(ntot), lmat(6, ntot)
+    type(neighbour_list_t), intent(in) :: nl
+    real(wp), intent(out) :: strain(6, ntot)
+    type(rhs_work_t), intent(inout), optional, target :: work
+    type(rhs_work_t), target :: own
+    type(rhs_work_t), pointer :: w
+    real(wp) :: l(3, 3), g(3, 3)
+    integer :: i, a
+    w => own
+    if (present(work)) w => work
+    call rhs_work_reserve(w, ntot, nl, REC_SHORT)
+    associate(rec => w%rec, r => w%rb, nr => size(w%jl), acc => w%mom)
+    rec(1:3, 1:ntot) = u(:, 1:ntot)
+    rec(R_VOL, 1:ntot) = m(1:ntot) / rho(1:ntot)
+    acc(:, 1:ntot) = 0
+    call velocity_gradient_rows(prm%kernel, ntot, x, nl, size(rec, 1), rec, nr, w%jl, &
+                                r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), &
+                                r(:, 7), r(:, 8), r(:, 9), r(:, 10), r(:, 11), r(:, 12), &
+                                r(:, 13), r(:, 14), acc)
+    strain = 0
+    do i = 1, n
+      l = reshape([lmat(1, i), lmat(4, i), lmat(5, i), lmat(4, i), lmat(2, i), lmat(6, i), &
+                   lmat(5, i), lmat(6, i), lmat(3, i)], [3, 3])
+      ! row a of G: L_i times the sum of component a (L symmetric)
+      do a = 1, 3
+        g(a, :) = matmul(l, acc(3 * a - 2:3 * a, i))
+      end do
+      strain(:, i) = [g(1, 1), g(2, 2), g(3, 3), 0.5_wp * (g(1, 2) + g(2, 1)), &
+                      0.5_wp * (g(1, 3) + g(3, 1)), 0.5_wp * (g(2, 3) + g(3, 2))]
+    end do
+    end associate
+  end subroutine rhs_strain_rate
+
+  !> The rows of the list for rhs_strain_rate: per pair (u_j - u_i) (x) g V_j
+  !> for i and (u_i - u_j) (x) (-g) V_i for j, component a of u in
+  !> acc(3a - 2:3a), summed for i in lanes and added to j in row order
+  !> (as pair_rows.inc).
+  subroutine velocity_gradient_rows(kernel, ntot, x, nl, nrec, rec, nr, jl, dx, dy, dz, r2l, &
+                                    fl, t1, t2, t3, t4, t5, t6, t7, t8, t9, acc)
+    type(kernel_t), intent(in) :: kernel
+    integer, intent(in) :: ntot, nrec, nr
+    real(wp), intent(in) :: x(3, ntot), rec(nrec, ntot)
+    type(neighbour_list_t), intent(in) :: nl
+    integer, intent(inout) :: jl(nr)
+    real(wp), intent(inout), dimension(nr) :: dx, dy, dz, r2l, fl, t1, t2, t3, t4, t5, t6, t7, &
+                                              t8, t9
+    real(wp), intent(inout) :: acc(9, ntot)
+    real(wp), dimension(LANES, 9) :: si
+    real(wp) :: s2, vi, vj, ui(3), f, qx, qy, qz, gx, gy, gz
+    integer :: kk, i, j, l, nn, nb, b, k, c
+    s2 = kernel%support**2
+    do kk = 1, nl%n_rows
+      i = nl%row(kk)
+      call in_range_soa(kk, i, x, s2, nl, nn, nb, jl, dx, dy, dz, r2l)
+      call kernel_f_list(kernel, nb, r2l, fl)
+      vi = rec(R_VOL, i)
+      ui = rec(1:3, i)
+      si = 0
+      do b = 0, nb - LANES, LANES
+        do k = 1, LANES
+          l = b + k
+          j = jl(l)
+          f = fl(l)
+          vj = rec(R_VOL, j)
+          qx = rec(1, j) - ui(1)
+          qy = rec(2, j) - ui(2)
+          qz = rec(3, j) - ui(3)
+          gx = f * dx(l)
+          gy = f * dy(l)
+          gz = f * dz(l)
+          si(k, 1) = si(k, 1) + vj * qx * gx
+          si(k, 2) = si(k, 2) + vj * qx * gy
+          si(k, 3) = si(k, 3) + vj * qx * gz
+          si(k, 4) = si(k, 4) + vj * qy * gx
+          si(k, 5) = si(k, 5) + vj * qy * gy
+          si(k, 6) = si(k, 6) + vj * qy * gz
+          si(k, 7) = si(k, 7) + vj * qz * gx
+          si(k, 8) = si(k, 8) + vj * qz * gy
+          si(k, 9) = si(k, 9) + vj * qz * gz
+          t1(l) = vi * qx * gx
+          t2(l) = vi * qx * gy
+          t3(l) = vi * qx * gz
+          t4(l) = vi * qy * gx
+          t5(l) = vi * qy * gy
+          t6(l) = vi * qy * gz
+          t7(l) = vi * qz * gx
+          t8(l) = vi * qz * gy
+          t9(l) = vi * qz * gz
+        end do
+      end do
+      do l = 1, nn
+        j = jl(l)
+        acc(:, j) = acc(:, j) + [t1(l), t2(l), t3(l), t4(l), t5(l), t6(l), t7(l), t8(l), t9(l)]
+      end do
+      do c = 1, 9
+        acc(c, i) = acc(c, i) + lane_total(si(:, c))
+      end do
+    end do
+  end subroutine velocity_gradient_rows
+
   !> Sizes w for ntot particles, records of nrec values and the rows of nl (a row's buffers hold
   !> its longest row plus a vector of padding, lane_sums), keeping what
   !> is large enough.
@@ -361,7 +476,7 @@ contains
   !> halo exchange).  grad_rho (G) is used only with the Antuono diffusion
   !> and must then hold valid values for halo copies too.
   subroutine rhs_evaluate(prm, n, ntot, x, u, rho, m, p, grad_rho, nl, drho, du, lambda, &
-                          lmat, work)
+                          lmat, work, strain)
     type(rhs_params_t), intent(in) :: prm
     integer, intent(in) :: n, ntot
     real(wp), intent(in) :: x(3, ntot), u(3, ntot), rho(ntot), m(ntot), p(ntot)
@@ -371,11 +486,14 @@ contains
     real(wp), intent(in), optional :: lambda(ntot)
     real(wp), intent(in), optional :: lmat(:, :)
     type(rhs_work_t), intent(inout), optional, target :: work
+    !> (R1) S of rhs_strain_rate, owned and halo: with prm%reconstruct
+    real(wp), intent(in), optional :: strain(:, :)
     type(rhs_work_t), target :: own
     type(rhs_work_t), pointer :: w
     real(wp) :: s2, h, eta2, coef_visc, coef_mon, diff_coef, inv_wdx
     type(pair_coefs_t) :: c
-    logical :: antuono, tensile, corrected, renorm_div, renorm, delta_visc, monaghan_visc
+    logical :: antuono, tensile, corrected, renorm_div, renorm, delta_visc, monaghan_visc, recon
+    integer :: nrec_need
     h = prm%kernel%h
     s2 = prm%kernel%support**2
     eta2 = 0.01_wp * h**2
@@ -396,9 +514,14 @@ contains
       error stop 'rhs_evaluate: the higher-order gradient needs lambda'
     if (tensile .and. .not. prm%tensile_dx > 0) &
       error stop 'rhs_evaluate: tensile control needs tensile_dx'
+    recon = prm%reconstruct .and. (delta_visc .or. monaghan_visc)
+    if (recon .and. .not. present(strain)) &
+      error stop 'rhs_evaluate: the reconstructed viscosity needs the strain rate'
     w => own
     if (present(work)) w => work
-    call rhs_work_reserve(w, ntot, nl, merge(REC_LONG, REC_SHORT, renorm .or. tensile))
+    nrec_need = merge(REC_LONG, REC_SHORT, renorm .or. tensile)
+    if (recon) nrec_need = REC_RECON
+    call rhs_work_reserve(w, ntot, nl, nrec_need)
     ! per particle: u, rho, p, V = m/rho and 1/rho (no division in the
     ! pair loop), and what the options need
     associate(rec => w%rec)
@@ -415,6 +538,7 @@ contains
       inv_wdx = 1 / kernel_w(prm%kernel, prm%tensile_dx)
     end if
     if (renorm) rec(R_L + 1:R_L + 6, 1:ntot) = lmat(:, 1:ntot)
+    if (recon) rec(R_S + 1:R_S + 6, 1:ntot) = strain(:, 1:ntot)
     ! (H1): the pressure with p = 0 on the free surface (pf), and the
     ! weight wc of the consistent form: prm%ho_weight inside the fluid
     ! (lambda >= LAMBDA_NEAR), 0 (the conservative E4) on the surface and
@@ -429,18 +553,19 @@ contains
     c = pair_coefs_t(s2, eta2, coef_visc, coef_mon, diff_coef, inv_wdx, prm%tensile_n)
     ! the common configurations have their own vectorised copies of the loop
     associate(r => w%rb, nr => size(w%jl), nrec => size(w%rec, 1))
-    if (renorm_div .and. corrected .and. .not. (antuono .or. tensile .or. prm%generic_loop) &
-        .and. delta_visc) then
+    if (renorm_div .and. corrected .and. .not. (antuono .or. tensile .or. recon .or. &
+        prm%generic_loop) .and. delta_visc) then
       call rows_renormalised(prm%kernel, c, ntot, x, grad_rho, nl, nrec, w%rec, nr, w%jl, &
                  r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), r(:, 9), &
                  r(:, 10), w%acc)
-    else if (.not. (renorm .or. antuono .or. tensile .or. prm%generic_loop) .and. delta_visc) then
+    else if (.not. (renorm .or. antuono .or. tensile .or. recon .or. prm%generic_loop) &
+             .and. delta_visc) then
       call rows_standard(prm%kernel, c, ntot, x, grad_rho, nl, nrec, w%rec, nr, w%jl, &
                  r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), r(:, 9), &
                  r(:, 10), w%acc)
     else
       call rows_general(renorm_div, corrected, antuono, tensile, delta_visc, monaghan_visc, &
-                        prm%kernel, c, ntot, x, grad_rho, nl, nrec, w%rec, nr, w%jl, &
+                        recon, prm%kernel, c, ntot, x, grad_rho, nl, nrec, w%rec, nr, w%jl, &
                  r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), r(:, 9), &
                  r(:, 10), w%acc)
     end if
@@ -455,9 +580,10 @@ contains
   !> The rows of the list for rhs_evaluate (the loop: pair_rows.inc), with
   !> the options as arguments: any combination, branches in the loop.
   subroutine rows_general(renorm_div, corrected, antuono, tensile, delta_visc, monaghan_visc, &
-                          kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, dx, dy, dz, r2l, &
-                          fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
-    logical, intent(in) :: renorm_div, corrected, antuono, tensile, delta_visc, monaghan_visc
+                          recon, kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, dx, dy, &
+                          dz, r2l, fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
+    logical, intent(in) :: renorm_div, corrected, antuono, tensile, delta_visc, monaghan_visc, &
+                           recon
     include 'pair_rows.inc'
   end subroutine rows_general
 
@@ -466,7 +592,8 @@ contains
   subroutine rows_standard(kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, dx, dy, dz, r2l, &
                            fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
     logical, parameter :: renorm_div = .false., corrected = .false., antuono = .false., &
-                          tensile = .false., delta_visc = .true., monaghan_visc = .false.
+                          tensile = .false., delta_visc = .true., monaghan_visc = .false., &
+                          recon = .false.
     include 'pair_rows.inc'
   end subroutine rows_standard
 
@@ -475,7 +602,8 @@ contains
   subroutine rows_renormalised(kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, dx, dy, dz, &
                                r2l, fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
     logical, parameter :: renorm_div = .true., corrected = .true., antuono = .false., &
-                          tensile = .false., delta_visc = .true., monaghan_visc = .false.
+                          tensile = .false., delta_visc = .true., monaghan_visc = .false., &
+                          recon = .false.
     include 'pair_rows.inc'
   end subroutine rows_renormalised
 

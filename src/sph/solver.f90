@@ -11,7 +11,8 @@ module solver
   use list_manager, only: list_manager_t, list_radius, list_check, list_build, list_pair_work
   use eos, only: eos_t, eos_pressure
   use fluid_rhs, only: rhs_params_t, rhs_work_t, rhs_renormalisation, rhs_evaluate, rhs_shift, &
-                       DIFF_ANTUONO, DIFF_NONE, VISC_NONE, PGRAD_HIGHER_ORDER, DIV_RENORMALISED
+                       rhs_strain_rate, DIFF_ANTUONO, DIFF_NONE, VISC_NONE, PGRAD_HIGHER_ORDER, &
+                       DIV_RENORMALISED
   use parallel_env, only: parallel_env_t, par_max, wall_time
   use decomposition, only: decomposition_t, decomp_redistribute, decomp_halo_build, &
                            decomp_refresh, decomp_refresh_field, decomp_measure, BALANCE_PAIRS
@@ -66,6 +67,8 @@ module solver
     !> L_i = M_i^-1 of the first pass (xx, yy, zz, xy, xz, yz), reused by
     !> the renormalised operators of the second
     real(wp), allocatable :: lmat(:, :)
+    !> (R1) the strain rate of the reconstructed viscosity (owned and halo)
+    real(wp), allocatable :: strain(:, :)
     !> (E8) particle shifting after each step: on/off, the spacing dx of
     !> W(dx), the shifts of the last step and the largest of them (global)
     logical :: shifting = .false.
@@ -148,11 +151,12 @@ contains
     call integrator_reserve(s%integ, cap)
     if (allocated(s%drho)) then
       if (size(s%drho) >= cap) return
-      deallocate(s%drho, s%du, s%grad_rho, s%lambda, s%lmat, s%dr)
+      deallocate(s%drho, s%du, s%grad_rho, s%lambda, s%lmat, s%dr, s%strain)
     end if
     allocate(s%drho(cap), s%du(3, cap), s%grad_rho(3, cap))
     allocate(s%lambda(1, cap), s%lmat(6, cap), s%dr(3, cap))
-    s%drho = 0; s%du = 0; s%grad_rho = 0; s%lambda = 0; s%lmat = 0; s%dr = 0
+    allocate(s%strain(6, merge(cap, 1, s%rhs%reconstruct)))
+    s%drho = 0; s%du = 0; s%grad_rho = 0; s%lambda = 0; s%lmat = 0; s%dr = 0; s%strain = 0
   end subroutine ensure_capacity
 
   !> Re-balances the decomposition when needed (first build, or imbalance
@@ -216,11 +220,12 @@ contains
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
     integer :: ntot
-    logical :: antuono, corrected, first_pass, fresh
+    logical :: antuono, corrected, first_pass, fresh, recon
     real(wp) :: t0, c0
     antuono = s%rhs%diffusion == DIFF_ANTUONO
     corrected = s%rhs%pressure_gradient == PGRAD_HIGHER_ORDER
-    first_pass = antuono .or. corrected .or. s%rhs%divergence == DIV_RENORMALISED
+    recon = s%rhs%reconstruct .and. s%rhs%viscosity /= VISC_NONE
+    first_pass = antuono .or. corrected .or. recon .or. s%rhs%divergence == DIV_RENORMALISED
     ! the stage's own L_i, or (renormalise_per_step) the step's first one
     fresh = antuono .or. s%first_stage .or. .not. s%renormalise_per_step
     associate(pt => s%parts)
@@ -232,8 +237,9 @@ contains
       s%timing%pair_visits = s%timing%pair_visits + real(s%lm%nl%n_pairs, wp) * &
                              merge(2, 1, first_pass .and. fresh)
       if (first_pass .and. .not. fresh) then
+        if (recon) call strain_rate(s, env)
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
-                          s%lm%nl, s%drho, s%du, s%lambda(1, :), s%lmat, s%rw)
+                          s%lm%nl, s%drho, s%du, s%lambda(1, :), s%lmat, s%rw, s%strain)
       else if (first_pass) then
         if (antuono) then
           call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%lm%nl, &
@@ -245,8 +251,9 @@ contains
         if (antuono) call decomp_refresh_field(s%dc, env, pt%n, s%grad_rho)
         ! p = 0 on free-surface partners: their lambda is needed too
         if (corrected) call decomp_refresh_field(s%dc, env, pt%n, s%lambda)
+        if (recon) call strain_rate(s, env)
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
-                          s%lm%nl, s%drho, s%du, s%lambda(1, :), s%lmat, s%rw)
+                          s%lm%nl, s%drho, s%du, s%lambda(1, :), s%lmat, s%rw, s%strain)
       else
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
                           s%lm%nl, s%drho, s%du, work=s%rw)
@@ -258,6 +265,21 @@ contains
     end associate
     s%n_evaluations = s%n_evaluations + 1
   end subroutine solver_evaluate
+
+  !> (R1) The strain rate of the owned particles at the current velocities
+  !> (L_i of the first pass), then of the halo copies from their owners.
+  subroutine strain_rate(s, env)
+    type(solver_t), intent(inout) :: s
+    type(parallel_env_t), intent(in) :: env
+    integer :: ntot
+    associate(pt => s%parts)
+      ntot = pt%n + pt%n_halo
+      call rhs_strain_rate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, s%lm%nl, s%lmat, &
+                           s%strain, s%rw)
+      call decomp_refresh_field(s%dc, env, pt%n, s%strain)
+      s%timing%pair_visits = s%timing%pair_visits + real(s%lm%nl%n_pairs, wp)
+    end associate
+  end subroutine strain_rate
 
   !> Brings the halo copies to the current state (positions, velocities,
   !> densities and pressures), e.g. before a snapshot whose fields use them.

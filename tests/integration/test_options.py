@@ -23,6 +23,8 @@ VARIANTS = [
     ["numerics.divergence=renormalised"],
     ["numerics.pressure_gradient=higher_order"],
     ["numerics.shifting=.true."],
+    ["numerics.visc_reconstruction=.true."],
+    ["numerics.visc_reconstruction=.true.", "numerics.viscosity=monaghan", "numerics.alpha=0.02"],
 ]
 
 

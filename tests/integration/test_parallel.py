@@ -60,6 +60,13 @@ def test_corrected_operators_and_shifting_bitwise(scratch):
                               "numerics.diffusion=antuono"], "corrected", [2, 3])
 
 
+def test_reconstructed_viscosity_bitwise(scratch):
+    # the reconstructed viscosity (R1) needs the strain rate of halo copies
+    # (an exchange) at every stage, from its own pass in canonical order
+    check_agreement(scratch, ["numerics.visc_reconstruction=.true.",
+                              "numerics.renormalise=step"], "recon", [2, 3])
+
+
 def test_metis_bitwise_at_2_and_3_ranks(scratch):
     check_agreement(scratch, ["parallel.decomposition=metis"], "metis", [2, 3])
 
