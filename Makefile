@@ -42,17 +42,20 @@ LDLIBS   := -L$(HDF5_LIB) -Wl,-rpath,$(HDF5_LIB) -lhdf5_fortran -lhdf5 -lfftw3 -
 # EXCLUDE (file names without extension or folder) leaves work in progress
 # out of a build, e.g. EXCLUDE=test_eos a unit-test suite.
 EXCLUDE   ?=
-SRC_DIRS  := $(patsubst %/,%,$(sort $(dir $(wildcard src/*/*.f90))))
-SRC       := $(filter-out $(addprefix %/,$(addsuffix .f90,$(EXCLUDE))),$(wildcard src/*/*.f90))
+# (*.F90: sources the C preprocessor expands first, e.g. the particle fields)
+SRC_DIRS  := $(patsubst %/,%,$(sort $(dir $(wildcard src/*/*.f90 src/*/*.F90))))
+SRC       := $(filter-out $(foreach e,$(EXCLUDE),%/$(e).f90 %/$(e).F90),\
+                          $(wildcard src/*/*.f90 src/*/*.F90))
 LIB_SRC   := $(filter-out %/main.f90,$(SRC))
 SUITES    := $(filter-out $(patsubst test_%,%,$(EXCLUDE)),\
                $(patsubst tests/unit/test_%.pf,%,$(wildcard tests/unit/test_*.pf)))
 PF_SRC    := $(patsubst %,tests/unit/test_%.pf,$(SUITES))
 
 # sorted by name: the link order of the flat layout
-LIB_OBJ   := $(sort $(patsubst %.f90,$(BUILD)/%.o,$(notdir $(LIB_SRC))))
+LIB_OBJ   := $(sort $(addprefix $(BUILD)/,$(addsuffix .o,$(basename $(notdir $(LIB_SRC))))))
 
 vpath %.f90 $(SRC_DIRS) tests
+vpath %.F90 $(SRC_DIRS)
 
 .PHONY: all sph debug test unit bench decomp-study validate input-doc clean
 all: sph
@@ -67,13 +70,17 @@ $(BUILD)/sph: $(LIB_OBJ) $(BUILD)/main.o
 $(BUILD)/%.o: %.f90 | $(BUILD)
 	$(FC) $(FFLAGS) -c $< -o $@
 
+$(BUILD)/%.o: %.F90 | $(BUILD)
+	$(FC) $(FFLAGS) -c $< -o $@
+
 $(BUILD):
 	mkdir -p $@
 
 # Module dependencies: "use foo" in any source makes its object depend on
 # $(BUILD)/foo.o when foo is one of ours (for a .pf file: the objects of
-# both unit-test builds below); "include 'bar.inc'" on bar.inc when it lies
-# beside the source (system headers such as fftw3.f03 are not tracked).
+# both unit-test builds below); "include 'bar.inc'" (or the preprocessor's
+# #include "bar.inc") on bar.inc when it lies beside the source (system
+# headers such as fftw3.f03 are not tracked).
 DEP_SRC := $(SRC) tests/testing.f90 tests/bitwise.f90 $(PF_SRC)
 $(BUILD)/deps.mk: $(DEP_SRC) | $(BUILD)
 	@for f in $(DEP_SRC); do \
@@ -81,10 +88,10 @@ $(BUILD)/deps.mk: $(DEP_SRC) | $(BUILD)
 	  case $$f in *.pf) o="$(PF2F90)/$$b.o $(PFB)/$$b.o";; *) o=$(BUILD)/$$b.o;; esac; \
 	  for m in $$(sed -nE 's/^[[:space:]]*use[[:space:]]*(,[[:space:]]*non_intrinsic[[:space:]]*::)?[[:space:]]*([A-Za-z0-9_]+).*/\2/Ip' $$f | tr A-Z a-z | sort -u); do \
 	    for d in $(SRC_DIRS) tests; do \
-	      if [ -f $$d/$$m.f90 ] && [ $$m != $$b ]; then echo "$$o: $(BUILD)/$$m.o"; fi; \
+	      if [ -f $$d/$$m.f90 -o -f $$d/$$m.F90 ] && [ $$m != $$b ]; then echo "$$o: $(BUILD)/$$m.o"; fi; \
 	    done; \
 	  done; \
-	  for i in $$(sed -nE "s/^[[:space:]]*include[[:space:]]*'([^']+)'.*/\1/Ip" $$f | sort -u); do \
+	  for i in $$(sed -nE "s/^[[:space:]]*#?[[:space:]]*include[[:space:]]*['\"]([^'\"]+)['\"].*/\1/Ip" $$f | sort -u); do \
 	    if [ -f $$(dirname $$f)/$$i ]; then echo "$$o: $$(dirname $$f)/$$i"; fi; \
 	  done; \
 	done > $@

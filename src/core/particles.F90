@@ -2,12 +2,15 @@
 !> (1..n), halo copies from other ranks after them (n+1..n+n_halo).
 !> Vectors always have three components; in 2D the third stays zero, so one
 !> code serves both dimensions.  Each array is a field of the registry
-!> (particle_fields), through which the code that moves particles between
-!> ranks and files reaches them without naming them.
+!> (particle_fields.inc, expanded here by the C preprocessor), through which
+!> the code that moves particles between ranks and files reaches them
+!> without naming them.
 module particles
   use kinds, only: wp, i8
-  use particle_fields, only: FIELD_TABLE, N_FIELDS, FIELD_X, FIELD_U, FIELD_RHO, FIELD_P, &
-                             FIELD_M, FIELD_ID, FIELD_X0, FIELD_XREF
+  use particle_fields, only: FIELD_TABLE, N_FIELDS
+#define FIELD(key, mem, kind, dset, mi, ha, re, sn, rs, ck) use particle_fields, only: key
+#include "particle_fields.inc"
+#undef FIELD
   implicit none
   private
   public :: particles_t, particles_allocate, particles_permute, particles_reserve
@@ -17,15 +20,17 @@ module particles
     integer :: dim = 2
     integer :: n = 0                  !< owned particles
     integer :: n_halo = 0             !< halo copies stored after the owned ones
-    real(wp), allocatable :: x(:, :)  !< position (3, capacity)
-    real(wp), allocatable :: u(:, :)  !< velocity (3, capacity)
-    real(wp), allocatable :: rho(:)   !< density
-    real(wp), allocatable :: p(:)     !< pressure, from rho by the equation of state
-    real(wp), allocatable :: m(:)     !< mass
-    real(wp), allocatable :: x0(:, :) !< initial position (Lagrangian label)
-    !> position at the last neighbour-list build (list_check's reference)
-    real(wp), allocatable :: xref(:, :)
-    integer(i8), allocatable :: id(:) !< global id, 1..N
+    !> the fields of particle_fields.inc: a VECTOR as (3, capacity), a
+    !> SCALAR or an INT8 as (capacity)
+#define FIELD(key, mem, kind, dset, mi, ha, re, sn, rs, ck) kind(mem)
+#define VECTOR(mem) real(wp), allocatable :: mem(:, :)
+#define SCALAR(mem) real(wp), allocatable :: mem(:)
+#define INT8(mem) integer(i8), allocatable :: mem(:)
+#include "particle_fields.inc"
+#undef VECTOR
+#undef SCALAR
+#undef INT8
+#undef FIELD
   end type particles_t
 
 contains
@@ -35,11 +40,15 @@ contains
     type(particles_t), intent(out) :: parts
     integer, intent(in) :: dim, capacity
     parts%dim = dim
-    allocate(parts%x(3, capacity), parts%u(3, capacity), parts%rho(capacity), &
-             parts%p(capacity), parts%m(capacity), parts%x0(3, capacity), &
-             parts%xref(3, capacity), parts%id(capacity))
-    parts%x = 0; parts%u = 0; parts%x0 = 0; parts%xref = 0
-    parts%rho = 0; parts%p = 0; parts%m = 0; parts%id = 0
+#define FIELD(key, mem, kind, dset, mi, ha, re, sn, rs, ck) kind(mem)
+#define VECTOR(mem) allocate(parts%mem(3, capacity), source=0.0_wp)
+#define SCALAR(mem) allocate(parts%mem(capacity), source=0.0_wp)
+#define INT8(mem) allocate(parts%mem(capacity), source=0_i8)
+#include "particle_fields.inc"
+#undef VECTOR
+#undef SCALAR
+#undef INT8
+#undef FIELD
   end subroutine particles_allocate
 
   !> The storage of real field f (FIELD_TABLE) as (ncomp, capacity).
@@ -49,20 +58,15 @@ contains
     integer, intent(in) :: f
     real(wp), pointer, contiguous :: a(:, :)
     select case (f)
-    case (FIELD_X)
-      a => parts%x
-    case (FIELD_U)
-      a => parts%u
-    case (FIELD_RHO)
-      a(1:1, 1:size(parts%rho)) => parts%rho
-    case (FIELD_P)
-      a(1:1, 1:size(parts%p)) => parts%p
-    case (FIELD_M)
-      a(1:1, 1:size(parts%m)) => parts%m
-    case (FIELD_X0)
-      a => parts%x0
-    case (FIELD_XREF)
-      a => parts%xref
+#define FIELD(key, mem, kind, dset, mi, ha, re, sn, rs, ck) kind(key, mem)
+#define VECTOR(key, mem) case (key); a => parts%mem
+#define SCALAR(key, mem) case (key); a(1:1, 1:size(parts%mem)) => parts%mem
+#define INT8(key, mem)
+#include "particle_fields.inc"
+#undef VECTOR
+#undef SCALAR
+#undef INT8
+#undef FIELD
     case default
       error stop 'particles_field: not a real field'
     end select
@@ -74,8 +78,15 @@ contains
     integer, intent(in) :: f
     integer(i8), pointer, contiguous :: a(:)
     select case (f)
-    case (FIELD_ID)
-      a => parts%id
+#define FIELD(key, mem, kind, dset, mi, ha, re, sn, rs, ck) kind(key, mem)
+#define VECTOR(key, mem)
+#define SCALAR(key, mem)
+#define INT8(key, mem) case (key); a => parts%mem
+#include "particle_fields.inc"
+#undef VECTOR
+#undef SCALAR
+#undef INT8
+#undef FIELD
     case default
       error stop 'particles_field_i8: not an int64 field'
     end select
