@@ -20,6 +20,7 @@ module simulation
   use decomposition, only: BALANCE_PARTICLES, BALANCE_PAIRS, decomp_partners
   use integrators, only: SCHEME_RK4, SCHEME_PC2
   use diagnostics, only: kinetic_energy, total_mass, total_momentum, probe_pressure, &
+                         probe_pressure_quadratic, &
                          find_bad_particle
   use case_base, only: case_t, case_fields_t, case_flow_t
   use parallel_env, only: parallel_env_t, par_sum, par_any, par_max, wall_time
@@ -53,6 +54,7 @@ module simulation
     integer :: n_snapshots = 0
     integer :: n_probes = 0
     real(wp) :: probes(3, 16) = 0
+    logical :: probe_quadratic = .false.   !< (D5) instead of (D4)
     integer(i8) :: n_global = 0
     real(wp) :: imb_sum = 0, imb_max = 0   !< imbalance statistics over the samples
     integer :: imb_n = 0
@@ -341,6 +343,7 @@ contains
     s%dc%imbalance_threshold = cfg%parallel%imbalance_threshold
     run%n_probes = cfg%output%n_probes
     run%probes = cfg%output%probes
+    run%probe_quadratic = cfg%output%probe_quadratic
     if (dim == 2) run%probes(3, :) = 0
     if (run%problem%pack_radius > 0 .and. len_trim(cfg%particles%from) == 0 .and. &
         len_trim(cfg%run%restart) == 0) then
@@ -429,7 +432,11 @@ contains
     mom = total_momentum(env, s%parts)
     p_probe = 0
     do k = 1, run%n_probes
-      p_probe(k) = probe_pressure(env, s%parts, s%rhs%kernel, run%probes(:, k))
+      if (run%probe_quadratic) then
+        p_probe(k) = probe_pressure_quadratic(env, s%parts, s%rhs%kernel, run%probes(:, k))
+      else
+        p_probe(k) = probe_pressure(env, s%parts, s%rhs%kernel, run%probes(:, k))
+      end if
     end do
     call run%problem%sample(env, t, s%parts, s%rhs%kernel, case_values)
     row = [t, real(step, wp), dt, s%dc%imbalance, kinetic_energy(env, s%parts), &

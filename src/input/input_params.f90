@@ -243,6 +243,13 @@ module input_params
           '', 'a time-series row every this many steps'), &
     var_t(G_OUTPUT, 'snapshots', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_NONE, '', 'write HDF5 snapshots at all'), &
+    var_t(G_OUTPUT, 'probe_quadratic', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
+          CH_NONE, '', 'probes fit a quadratic to the pressures in the support (exact for ' // &
+          'quadratic p) instead of the Shepard mean', &
+          doc='the probes fit a quadratic polynomial to the particle pressures within the ' // &
+              'kernel support by weighted least squares ([doc/theory.md](theory.md) D5): ' // &
+              'exact for a quadratic pressure field, where the Shepard mean (D4) is off ' // &
+              'by O(h^2) (0.56 (h/R)^2 P at the centre of the circular patch)'), &
     var_t(G_OUTPUT, 'n_probes', T_INT, SCALAR, LO_GE, HI_LE, 0.0_wp, real(MAX_PROBES, wp), &
           CH_NONE, '', 'number of pressure probes'), &
     var_t(G_OUTPUT, 'probes', T_REAL, [3, MAX_PROBES], LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
@@ -342,6 +349,7 @@ module input_params
     character(len=DIR_LEN_MAX + 1) :: dir = 'runs/circle2d'
     real(wp) :: dt = 0.1_wp
     integer :: probe_every = 1
+    logical :: probe_quadratic = .false.                 !< (D5) instead of (D4)
     logical :: snapshots = .true.
     integer :: n_probes = 1
     real(wp) :: probes(3, MAX_PROBES) = 0.0_wp           !< probe k at probes(:, k)
@@ -544,11 +552,12 @@ contains
     character(len=4 * DIR_LEN_MAX) :: dir
     real(wp) :: dt, probes(3, MAX_PROBES)
     integer :: probe_every, n_probes
-    logical :: snapshots
-    namelist /output/ dir, dt, probe_every, snapshots, n_probes, probes
+    logical :: snapshots, probe_quadratic
+    namelist /output/ dir, dt, probe_every, snapshots, n_probes, probes, probe_quadratic
     dir = p%dir
     dt = p%dt
     probe_every = p%probe_every
+    probe_quadratic = p%probe_quadratic
     snapshots = p%snapshots
     n_probes = p%n_probes
     probes = p%probes
@@ -557,6 +566,7 @@ contains
     p%dir = dir(1:len(p%dir))
     p%dt = dt
     p%probe_every = probe_every
+    p%probe_quadratic = probe_quadratic
     p%snapshots = snapshots
     p%n_probes = n_probes
     p%probes = probes
@@ -702,6 +712,8 @@ contains
       text = real_str(p%dt)
     case ('probe_every')
       text = int_str(p%probe_every)
+    case ('probe_quadratic')
+      text = logical_text(p%probe_quadratic)
     case ('snapshots')
       text = logical_text(p%snapshots)
     case ('n_probes')
