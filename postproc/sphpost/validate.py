@@ -522,9 +522,10 @@ def write_report(path, doc, circle, ell, squares, args, total_wall, jobs, load):
         if conv:
             w("### The convergent recipe: input/circle2d_convergence.nml")
             w("")
-            w("The same case with h/dx, c0 and alpha scaled with the resolution by the input "
-              "file's rule (h/dx ~ dx^-1/2, c0 ~ dx^-1/2, alpha ~ dx; `particles.n` alone "
-              "changes; doc/convergence.md, S1 and the study):")
+            w("The same case with h/dx and c0 scaled with the resolution by the input "
+              "file's rule (h/dx ~ dx^-1/2, c0 ~ dx^-1/2), the reconstructed viscosity "
+              "(R1) and the quadratic centre probe (D5); `particles.n` alone changes "
+              "(doc/convergence.md, S1 and the study):")
             w("")
             stretching_tables(w, conv, doc, "convergence")
     else:
