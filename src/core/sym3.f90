@@ -1,12 +1,14 @@
 !> Small dense algebra of symmetric 3 x 3 matrices (in 2D their leading
 !> 2 x 2 block), shared by the renormalisation (E3), the free-surface
-!> indicator (E9) and the neighbour-list validity test (affine_motion).
+!> indicator (E9) and the neighbour-list validity test (affine_motion),
+!> and the one elimination of small symmetric positive definite systems
+!> (solve_spd: also the quadratic probe's normal equations, D5).
 !> A packed symmetric matrix is stored as (xx, yy, zz, xy, xz, yz).
 module sym3
   use kinds, only: wp
   implicit none
   private
-  public :: sym_min_eigenvalue, invert_sym, invert_spd, sigma_min
+  public :: sym_min_eigenvalue, invert_sym, invert_spd, solve_spd, sigma_min
 
 contains
 
@@ -67,34 +69,49 @@ contains
   end subroutine invert_sym
 
   !> Inverse of the leading dim x dim block of a symmetric positive matrix
-  !> by Gauss-Jordan elimination; false if it is (numerically) singular.
+  !> (solve_spd with the identity); false if it is (numerically) singular.
   logical function invert_spd(dim, c, inv) result(ok)
     integer, intent(in) :: dim
     real(wp), intent(in) :: c(3, 3)
     real(wp), intent(out) :: inv(3, 3)
-    real(wp) :: w(3, 6), piv, scale
-    integer :: k, l
+    real(wp) :: a(3, 3)
+    integer :: k
     inv = 0
-    ok = .false.
-    scale = maxval([(abs(c(k, k)), k = 1, dim)])
-    if (.not. scale > 0) return
-    w = 0
-    w(1:dim, 1:dim) = c(1:dim, 1:dim)
+    a = c
     do k = 1, dim
-      w(k, 3 + k) = 1
+      inv(k, k) = 1
     end do
-    do k = 1, dim
-      ! positive definite: the diagonal pivots stay positive without row exchanges
-      piv = w(k, k)
-      if (piv <= 1e-12_wp * scale) return
-      w(k, :) = w(k, :) / piv
-      do l = 1, dim
-        if (l /= k) w(l, :) = w(l, :) - w(l, k) * w(k, :)
+    ok = solve_spd(a(1:dim, 1:dim), inv(1:dim, 1:dim), 1e-12_wp)
+    if (.not. ok) inv = 0
+  end function invert_spd
+
+  !> Solves a x = b for the columns of b (overwritten by x) by Gauss-Jordan
+  !> elimination, a symmetric positive definite: the diagonal pivots stay
+  !> positive without row exchanges.  False, b undefined, when a pivot falls
+  !> to tol times the largest diagonal entry or below (numerically singular).
+  logical function solve_spd(a, b, tol) result(ok)
+    real(wp), intent(inout) :: a(:, :)    !< destroyed
+    real(wp), intent(inout) :: b(:, :)
+    real(wp), intent(in) :: tol
+    real(wp) :: piv, scale
+    integer :: k, l, n
+    ok = .false.
+    n = size(a, 1)
+    scale = maxval([(abs(a(k, k)), k = 1, n)])
+    if (.not. scale > 0) return
+    do k = 1, n
+      piv = a(k, k)
+      if (piv <= tol * scale) return
+      a(k, :) = a(k, :) / piv
+      b(k, :) = b(k, :) / piv
+      do l = 1, n
+        if (l == k) cycle
+        b(l, :) = b(l, :) - a(l, k) * b(k, :)
+        a(l, :) = a(l, :) - a(l, k) * a(k, :)
       end do
     end do
-    inv(1:dim, 1:dim) = w(1:dim, 4:3 + dim)
     ok = .true.
-  end function invert_spd
+  end function solve_spd
 
   !> Smallest singular value of the leading dim x dim block of f: the
   !> square root of the smallest eigenvalue of f^T f, by cyclic Jacobi

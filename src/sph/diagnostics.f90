@@ -4,6 +4,7 @@ module diagnostics
   use kinds, only: wp
   use particles, only: particles_t
   use kernels, only: kernel_t, kernel_w
+  use sym3, only: solve_spd
   use parallel_env, only: parallel_env_t, par_sum, par_sum_array, par_sum_exact
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_is_finite
   implicit none
@@ -74,33 +75,27 @@ contains
   !> probe (D4) is off by about (h^2/2) <r^2>_W laplacian(p) (0.56 h^2 P/R^2 at
   !> the centre of the circular patch).  The sums are exact (par_sum_exact):
   !> the value is bitwise the same on any number of ranks.  Falls back to D4
-  !> where the fit is ill-posed (fewer than 3 (dim + 1) particles, or the
-  !> normal matrix singular to 1e-10 of its largest pivot).
+  !> where the fit is ill-posed (fewer than 3 (dim + 1) particles, or a
+  !> pivot of the normal matrix below 1e-10 of its largest diagonal entry).
   function probe_pressure_quadratic(env, parts, kernel, point) result(p)
     type(parallel_env_t), intent(in) :: env
     type(particles_t), intent(in) :: parts
     type(kernel_t), intent(in) :: kernel
     real(wp), intent(in) :: point(3)
     real(wp) :: p
-    integer, parameter :: MAXB = 10            ! 1 + 3 + 6 in 3D, 6 in 2D
-    real(wp), allocatable :: terms(:, :), sums(:)
-    real(wp) :: a(MAXB, MAXB), b(MAXB), phi(MAXB), xi(3), w, r2, s2, piv, big
-    integer :: nb, nt, j, k, l, c, dim, m, count_in
+    real(wp), allocatable :: terms(:, :), sums(:), a(:, :), b(:, :)
+    real(wp) :: phi(10), xi(3), w, r2
+    integer, allocatable :: near(:)
+    integer :: nb, nt, j, k, l, c, m, dim
     dim = parts%dim
-    nb = merge(6, 10, dim == 2)
+    nb = merge(6, 10, dim == 2)              ! 1, xi_a, xi_a xi_b
     nt = nb * (nb + 1) / 2 + nb + 1          ! the normal matrix, the right-hand side, the count
-    s2 = kernel%support**2
-    count_in = 0
-    do j = 1, parts%n
-      if (sum((parts%x(:, j) - point)**2) < s2) count_in = count_in + 1
-    end do
-    allocate(terms(nt, max(count_in, 1)), sums(nt))
-    terms = 0
-    m = 0
-    do j = 1, parts%n
+    near = pack([(j, j = 1, parts%n)], &
+                [(sum((parts%x(:, j) - point)**2) < kernel%support**2, j = 1, parts%n)])
+    allocate(terms(nt, size(near)))
+    do m = 1, size(near)
+      j = near(m)
       r2 = sum((parts%x(:, j) - point)**2)
-      if (r2 >= s2) cycle
-      m = m + 1
       w = kernel_w(kernel, sqrt(r2)) * parts%m(j) / parts%rho(j)
       xi = (parts%x(:, j) - point) / kernel%h
       phi(1:nb) = quadratic_basis(dim, xi)
@@ -114,10 +109,11 @@ contains
       terms(c + 1:c + nb, m) = w * parts%p(j) * phi(1:nb)
       terms(nt, m) = 1
     end do
-    sums = par_sum_exact(env, terms(:, 1:m))
+    sums = par_sum_exact(env, terms)
     ! the fallback, on every rank (a collective call)
     p = probe_pressure(env, parts, kernel, point)
     if (nint(sums(nt)) < 3 * (dim + 1)) return
+    allocate(a(nb, nb), b(nb, 1))
     c = 0
     do k = 1, nb
       do l = k, nb
@@ -126,27 +122,8 @@ contains
         a(l, k) = sums(c)
       end do
     end do
-    b(1:nb) = sums(c + 1:c + nb)
-    ! Gaussian elimination with partial pivoting on the small normal system
-    big = maxval(abs(a(1:nb, 1:nb)))
-    do k = 1, nb
-      l = k - 1 + maxloc(abs(a(k:nb, k)), dim=1)
-      if (l /= k) then
-        a([k, l], 1:nb) = a([l, k], 1:nb)
-        b([k, l]) = b([l, k])
-      end if
-      piv = a(k, k)
-      if (.not. abs(piv) > 1e-10_wp * big) return
-      do l = k + 1, nb
-        w = a(l, k) / piv
-        a(l, k:nb) = a(l, k:nb) - w * a(k, k:nb)
-        b(l) = b(l) - w * b(k)
-      end do
-    end do
-    do k = nb, 1, -1
-      b(k) = (b(k) - dot_product(a(k, k + 1:nb), b(k + 1:nb))) / a(k, k)
-    end do
-    p = b(1)
+    b(:, 1) = sums(c + 1:c + nb)
+    if (solve_spd(a, b, 1e-10_wp)) p = b(1, 1)
   end function probe_pressure_quadratic
 
   !> The quadratic monomials of xi: 1, xi_a, xi_a xi_b (a <= b) in dim dimensions.
