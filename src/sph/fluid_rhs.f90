@@ -19,7 +19,7 @@ module fluid_rhs
   implicit none
   private
   public :: rhs_params_t, rhs_density_gradient, rhs_renormalisation, rhs_evaluate, rhs_shift, &
-            rhs_strain_rate, &
+            rhs_strain_rate, rhs_reconstructs, &
             LAMBDA_MIN, LAMBDA_SURFACE, LAMBDA_NEAR, rhs_work_t, rhs_work_reserve, &
             in_range_soa, lane_total, &
             row_capacity, LANES
@@ -293,6 +293,13 @@ contains
                xij(1) * xij(2), xij(1) * xij(3), xij(2) * xij(3)]
   end function moment_term
 
+  !> (R1) Whether the viscosity is reconstructed: asked for, and a viscosity
+  !> on (then the pair loop needs the strain rate of rhs_strain_rate).
+  pure logical function rhs_reconstructs(prm)
+    type(rhs_params_t), intent(in) :: prm
+    rhs_reconstructs = prm%reconstruct .and. prm%viscosity /= VISC_NONE
+  end function rhs_reconstructs
+
   !> (R1) The strain rate of the owned particles from the renormalised
   !> velocity gradient (E3):
   !>   G_i = (L_i Sum_j (u_a,j - u_a,i) g V_j)_a,   S_i = (G_i + G_i^T)/2,
@@ -514,7 +521,7 @@ contains
       error stop 'rhs_evaluate: the higher-order gradient needs lambda'
     if (tensile .and. .not. prm%tensile_dx > 0) &
       error stop 'rhs_evaluate: tensile control needs tensile_dx'
-    recon = prm%reconstruct .and. (delta_visc .or. monaghan_visc)
+    recon = rhs_reconstructs(prm)
     if (recon .and. .not. present(strain)) &
       error stop 'rhs_evaluate: the reconstructed viscosity needs the strain rate'
     w => own

@@ -11,8 +11,8 @@ module solver
   use list_manager, only: list_manager_t, list_radius, list_check, list_build, list_pair_work
   use eos, only: eos_t, eos_pressure
   use fluid_rhs, only: rhs_params_t, rhs_work_t, rhs_renormalisation, rhs_evaluate, rhs_shift, &
-                       rhs_strain_rate, DIFF_ANTUONO, DIFF_NONE, VISC_NONE, PGRAD_HIGHER_ORDER, &
-                       DIV_RENORMALISED
+                       rhs_strain_rate, rhs_reconstructs, DIFF_ANTUONO, DIFF_NONE, VISC_NONE, &
+                       PGRAD_HIGHER_ORDER, DIV_RENORMALISED
   use parallel_env, only: parallel_env_t, par_max, wall_time
   use decomposition, only: decomposition_t, decomp_redistribute, decomp_halo_build, &
                            decomp_refresh, decomp_refresh_field, decomp_measure, BALANCE_PAIRS
@@ -155,7 +155,7 @@ contains
     end if
     allocate(s%drho(cap), s%du(3, cap), s%grad_rho(3, cap))
     allocate(s%lambda(1, cap), s%lmat(6, cap), s%dr(3, cap))
-    allocate(s%strain(6, merge(cap, 1, s%rhs%reconstruct)))
+    allocate(s%strain(6, merge(cap, 1, rhs_reconstructs(s%rhs))))
     s%drho = 0; s%du = 0; s%grad_rho = 0; s%lambda = 0; s%lmat = 0; s%dr = 0; s%strain = 0
   end subroutine ensure_capacity
 
@@ -224,7 +224,7 @@ contains
     real(wp) :: t0, c0
     antuono = s%rhs%diffusion == DIFF_ANTUONO
     corrected = s%rhs%pressure_gradient == PGRAD_HIGHER_ORDER
-    recon = s%rhs%reconstruct .and. s%rhs%viscosity /= VISC_NONE
+    recon = rhs_reconstructs(s%rhs)
     first_pass = antuono .or. corrected .or. recon .or. s%rhs%divergence == DIV_RENORMALISED
     ! the stage's own L_i, or (renormalise_per_step) the step's first one
     fresh = antuono .or. s%first_stage .or. .not. s%renormalise_per_step
