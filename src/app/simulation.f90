@@ -12,8 +12,8 @@ module simulation
   use kernels, only: kernel_init, kernel_kind_of
   use eos, only: eos_init, EOS_LINEAR, EOS_TAIT
   use fluid_rhs, only: VISC_NONE, VISC_DELTA, VISC_MONAGHAN, DIFF_NONE, DIFF_MOLTENI, &
-                       DIFF_ANTUONO, PGRAD_STANDARD, PGRAD_HIGHER_ORDER, DIV_STANDARD, &
-                       DIV_RENORMALISED
+                       DIFF_ANTUONO, PGRAD_STANDARD, PGRAD_HIGHER_ORDER, PGRAD_RENORMALISED, &
+                       DIV_STANDARD, DIV_RENORMALISED
   use solver, only: solver_t, solver_init, solver_step, solver_evaluate, solver_time_step, &
                     solver_flow_fields, solver_sync_halo, step_history_t, solver_history, &
                     solver_restore, solver_timing_t
@@ -299,8 +299,14 @@ contains
     s%rhs%tensile_eps = merge(cfg%numerics%tensile_eps, 0.0_wp, cfg%numerics%tensile)
     s%rhs%tensile_n = cfg%numerics%tensile_n
     s%rhs%tensile_dx = dx
-    s%rhs%pressure_gradient = merge(PGRAD_HIGHER_ORDER, PGRAD_STANDARD, &
-                                    cfg%numerics%pressure_gradient == 'higher_order')
+    select case (cfg%numerics%pressure_gradient)
+    case ('higher_order')
+      s%rhs%pressure_gradient = PGRAD_HIGHER_ORDER
+    case ('renormalised')
+      s%rhs%pressure_gradient = PGRAD_RENORMALISED
+    case default
+      s%rhs%pressure_gradient = PGRAD_STANDARD
+    end select
     s%rhs%divergence = merge(DIV_RENORMALISED, DIV_STANDARD, &
                              cfg%numerics%divergence == 'renormalised')
     s%shifting = cfg%numerics%shifting

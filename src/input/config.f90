@@ -717,6 +717,19 @@ contains
       return
     end if
 
+    ! (H2) is the adjoint of the renormalised divergence: the pair keeps
+    ! the energy only together (doc/theory.md)
+    if (c%numerics%pressure_gradient == 'renormalised' .and. &
+        c%numerics%divergence /= 'renormalised') then
+      call origin_of(origins, path, 'numerics.pressure_gradient', origin, line)
+      call fail(err, origin, '&numerics pressure_gradient = ''renormalised'' needs ' // &
+                'divergence = ''renormalised'' (here ''' // trim(c%numerics%divergence) // &
+                ''')', line, ': the two form one energy-conserving pair; allowed ' // &
+                'pressure_gradient = ''standard'' or ''higher_order'' with divergence = ''' // &
+                trim(c%numerics%divergence) // '''')
+      return
+    end if
+
     ! Weak compressibility: the Mach number must stay small.
     speed = 0
     formula = '0'

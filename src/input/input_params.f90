@@ -32,7 +32,7 @@ module input_params
   character(len=NAME_LEN), parameter :: DIFFUSIONS(*) = &
     [character(len=NAME_LEN) :: 'molteni', 'antuono', 'none']
   character(len=NAME_LEN), parameter :: PRESSURE_GRADIENTS(*) = &
-    [character(len=NAME_LEN) :: 'standard', 'higher_order']
+    [character(len=NAME_LEN) :: 'standard', 'higher_order', 'renormalised']
   character(len=NAME_LEN), parameter :: RENORMALISE_WHEN(*) = &
     [character(len=NAME_LEN) :: 'stage', 'step']
   character(len=NAME_LEN), parameter :: DIVERGENCES(*) = &

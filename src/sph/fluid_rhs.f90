@@ -20,17 +20,19 @@ module fluid_rhs
   private
   public :: rhs_params_t, rhs_density_gradient, rhs_renormalisation, rhs_evaluate, rhs_shift, &
             rhs_strain_rate, rhs_reconstructs, &
-            LAMBDA_MIN, LAMBDA_SURFACE, LAMBDA_NEAR, rhs_work_t, rhs_work_reserve, &
+            LAMBDA_MIN, LAMBDA_SURFACE, LAMBDA_NEAR, LAMBDA_OUTER, rhs_work_t, rhs_work_reserve, &
             in_range_soa, lane_total, &
             row_capacity, LANES
   public :: VISC_NONE, VISC_DELTA, VISC_MONAGHAN, DIFF_NONE, DIFF_MOLTENI, DIFF_ANTUONO
-  public :: PGRAD_STANDARD, PGRAD_HIGHER_ORDER, DIV_STANDARD, DIV_RENORMALISED
+  public :: PGRAD_STANDARD, PGRAD_HIGHER_ORDER, PGRAD_RENORMALISED, DIV_STANDARD, DIV_RENORMALISED
 
   integer, parameter :: VISC_NONE = 0, VISC_DELTA = 1, VISC_MONAGHAN = 2
   integer, parameter :: DIFF_NONE = 0, DIFF_MOLTENI = 1, DIFF_ANTUONO = 2
   !> (E4) -(1/rho_i) Sum_j (p_i + p_j) g V_j, or (H1) the corrected
-  !> -(1/rho_i) L_i Sum_j (p_j - p_i) g V_j with p = 0 on the free surface
-  integer, parameter :: PGRAD_STANDARD = 1, PGRAD_HIGHER_ORDER = 2
+  !> -(1/rho_i) L_i Sum_j (p_j - p_i) g V_j with p = 0 on the free surface,
+  !> or (H2) -(1/rho_i) Sum_j (p_i L_i + p_j L_j) g V_j, the adjoint of the
+  !> renormalised divergence
+  integer, parameter :: PGRAD_STANDARD = 1, PGRAD_HIGHER_ORDER = 2, PGRAD_RENORMALISED = 3
   !> (E1) the velocity divergence Sum_j u_ji . g V_j, or its renormalised
   !> form Sum_j u_ji . (L_i g) V_j, exact for linear velocity fields
   integer, parameter :: DIV_STANDARD = 1, DIV_RENORMALISED = 2
@@ -43,6 +45,10 @@ module fluid_rhs
   !> (H1) the higher-order gradient's weight rises linearly from 0 at
   !> LAMBDA_BLEND to 1 at LAMBDA_NEAR (doc/numerics.md, "the blend")
   real(wp), parameter :: LAMBDA_BLEND = 0.7_wp
+  !> (H2) the pair's matrix B_i goes from L_i at LAMBDA_SURFACE to I at
+  !> LAMBDA_OUTER, across the outer layer of the free surface: L_i alone
+  !> there (B = L) was measured unstable (doc/convergence.md)
+  real(wp), parameter :: LAMBDA_OUTER = 0.4_wp
   !> (H1) the corrected form's largest weight: a tenth of the
   !> conservative (E4) stays everywhere, whose term 2 p_i Sum_j g V_j pushes
   !> particles apart where they crowd; the corrected form alone has no such
@@ -500,7 +506,11 @@ contains
     real(wp) :: s2, h, eta2, coef_visc, coef_mon, diff_coef, inv_wdx
     type(pair_coefs_t) :: c
     logical :: antuono, tensile, corrected, renorm_div, renorm, delta_visc, monaghan_visc, recon
-    integer :: nrec_need
+    logical :: adjoint
+    integer :: nrec_need, i
+    real(wp) :: b
+    !> I as the six entries xx, yy, zz, xy, xz, yz of a symmetric matrix
+    real(wp), parameter :: IDENTITY6(6) = [1, 1, 1, 0, 0, 0]
     h = prm%kernel%h
     s2 = prm%kernel%support**2
     eta2 = 0.01_wp * h**2
@@ -514,11 +524,12 @@ contains
     tensile = prm%tensile_eps > 0
     corrected = prm%pressure_gradient == PGRAD_HIGHER_ORDER
     renorm_div = prm%divergence == DIV_RENORMALISED
-    renorm = corrected .or. renorm_div
+    adjoint = prm%pressure_gradient == PGRAD_RENORMALISED
+    renorm = corrected .or. renorm_div .or. adjoint
     if (renorm .and. .not. present(lmat)) &
       error stop 'rhs_evaluate: the renormalised operators need lmat (rhs_renormalisation)'
-    if (corrected .and. .not. present(lambda)) &
-      error stop 'rhs_evaluate: the higher-order gradient needs lambda'
+    if ((corrected .or. adjoint) .and. .not. present(lambda)) &
+      error stop 'rhs_evaluate: the corrected pressure gradients need lambda'
     if (tensile .and. .not. prm%tensile_dx > 0) &
       error stop 'rhs_evaluate: tensile control needs tensile_dx'
     recon = rhs_reconstructs(prm)
@@ -545,6 +556,13 @@ contains
       inv_wdx = 1 / kernel_w(prm%kernel, prm%tensile_dx)
     end if
     if (renorm) rec(R_L + 1:R_L + 6, 1:ntot) = lmat(:, 1:ntot)
+    ! (H2): B_i = b_i L_i + (1 - b_i) I for both operators of the pair
+    if (adjoint) then
+      do i = 1, ntot
+        b = max(0.0_wp, min(1.0_wp, (lambda(i) - LAMBDA_OUTER) / (LAMBDA_SURFACE - LAMBDA_OUTER)))
+        rec(R_L + 1:R_L + 6, i) = b * lmat(:, i) + (1 - b) * IDENTITY6
+      end do
+    end if
     if (recon) rec(R_S + 1:R_S + 6, 1:ntot) = strain(:, 1:ntot)
     ! (H1): the pressure with p = 0 on the free surface (pf), and the
     ! weight wc of the consistent form: prm%ho_weight inside the fluid
@@ -561,20 +579,21 @@ contains
     ! the common configurations have their own vectorised copies of the loop
     associate(r => w%rb, nr => size(w%jl), nrec => size(w%rec, 1))
     if (renorm_div .and. corrected .and. .not. (antuono .or. tensile .or. recon .or. &
-        prm%generic_loop) .and. delta_visc) then
+        adjoint .or. prm%generic_loop) .and. delta_visc) then
       call rows_renormalised(prm%kernel, c, ntot, x, grad_rho, nl, nrec, w%rec, nr, w%jl, &
                  r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), r(:, 9), &
                  r(:, 10), w%acc)
-    else if (.not. (renorm .or. antuono .or. tensile .or. recon .or. prm%generic_loop) &
+    else if (.not. (renorm .or. antuono .or. tensile .or. recon .or. adjoint .or. &
+             prm%generic_loop) &
              .and. delta_visc) then
       call rows_standard(prm%kernel, c, ntot, x, grad_rho, nl, nrec, w%rec, nr, w%jl, &
                  r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), r(:, 9), &
                  r(:, 10), w%acc)
     else
       call rows_general(renorm_div, corrected, antuono, tensile, delta_visc, monaghan_visc, &
-                        recon, prm%kernel, c, ntot, x, grad_rho, nl, nrec, w%rec, nr, w%jl, &
-                 r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), r(:, 9), &
-                 r(:, 10), w%acc)
+                        recon, adjoint, prm%kernel, c, ntot, x, grad_rho, nl, nrec, w%rec, nr, &
+                        w%jl, r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), &
+                        r(:, 8), r(:, 9), r(:, 10), w%acc)
     end if
     end associate
     drho(1:n) = w%acc(1, 1:n)
@@ -587,10 +606,10 @@ contains
   !> The rows of the list for rhs_evaluate (the loop: pair_rows.inc), with
   !> the options as arguments: any combination, branches in the loop.
   subroutine rows_general(renorm_div, corrected, antuono, tensile, delta_visc, monaghan_visc, &
-                          recon, kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, dx, dy, &
-                          dz, r2l, fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
+                          recon, adjoint, kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, &
+                          dx, dy, dz, r2l, fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
     logical, intent(in) :: renorm_div, corrected, antuono, tensile, delta_visc, monaghan_visc, &
-                           recon
+                           recon, adjoint
     include 'pair_rows.inc'
   end subroutine rows_general
 
@@ -600,7 +619,7 @@ contains
                            fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
     logical, parameter :: renorm_div = .false., corrected = .false., antuono = .false., &
                           tensile = .false., delta_visc = .true., monaghan_visc = .false., &
-                          recon = .false.
+                          recon = .false., adjoint = .false.
     include 'pair_rows.inc'
   end subroutine rows_standard
 
@@ -610,7 +629,7 @@ contains
                                r2l, fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
     logical, parameter :: renorm_div = .true., corrected = .true., antuono = .false., &
                           tensile = .false., delta_visc = .true., monaghan_visc = .false., &
-                          recon = .false.
+                          recon = .false., adjoint = .false.
     include 'pair_rows.inc'
   end subroutine rows_renormalised
 

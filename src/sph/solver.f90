@@ -12,7 +12,7 @@ module solver
   use eos, only: eos_t, eos_pressure
   use fluid_rhs, only: rhs_params_t, rhs_work_t, rhs_renormalisation, rhs_evaluate, rhs_shift, &
                        rhs_strain_rate, rhs_reconstructs, DIFF_ANTUONO, DIFF_NONE, VISC_NONE, &
-                       PGRAD_HIGHER_ORDER, DIV_RENORMALISED
+                       PGRAD_HIGHER_ORDER, PGRAD_RENORMALISED, DIV_RENORMALISED
   use parallel_env, only: parallel_env_t, par_max, wall_time
   use decomposition, only: decomposition_t, decomp_redistribute, decomp_halo_build, &
                            decomp_refresh, decomp_refresh_field, decomp_measure, BALANCE_PAIRS
@@ -220,12 +220,14 @@ contains
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
     integer :: ntot
-    logical :: antuono, corrected, first_pass, fresh, recon
+    logical :: antuono, corrected, first_pass, fresh, recon, adjoint
     real(wp) :: t0, c0
     antuono = s%rhs%diffusion == DIFF_ANTUONO
     corrected = s%rhs%pressure_gradient == PGRAD_HIGHER_ORDER
+    adjoint = s%rhs%pressure_gradient == PGRAD_RENORMALISED
     recon = rhs_reconstructs(s%rhs)
-    first_pass = antuono .or. corrected .or. recon .or. s%rhs%divergence == DIV_RENORMALISED
+    first_pass = antuono .or. corrected .or. adjoint .or. recon .or. &
+                 s%rhs%divergence == DIV_RENORMALISED
     ! the stage's own L_i, or (renormalise_per_step) the step's first one
     fresh = antuono .or. s%first_stage .or. .not. s%renormalise_per_step
     associate(pt => s%parts)
@@ -251,6 +253,11 @@ contains
         if (antuono) call decomp_refresh_field(s%dc, env, pt%n, s%grad_rho)
         ! p = 0 on free-surface partners: their lambda is needed too
         if (corrected) call decomp_refresh_field(s%dc, env, pt%n, s%lambda)
+        ! (H2) reads B_j of halo partners, from their L_j and lambda_j
+        if (adjoint) then
+          call decomp_refresh_field(s%dc, env, pt%n, s%lmat)
+          call decomp_refresh_field(s%dc, env, pt%n, s%lambda)
+        end if
         if (recon) call strain_rate(s, env)
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
                           s%lm%nl, s%drho, s%du, s%lambda(1, :), s%lmat, s%rw, s%strain)

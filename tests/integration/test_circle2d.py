@@ -124,6 +124,8 @@ def test_bad_input_writes_nothing(scratch):
         (["numerics.kernel=wendlnd"], ["&numerics", "kernel", "wendlnd"]),
         (["numerix.cfl=1"], ["numerix"]),
         (["physics.c0=1"], ["&physics", "c0"]),
+        (["numerics.pressure_gradient=renormalised", "numerics.divergence=standard"],
+         ["&numerics", "pressure_gradient", "renormalised", "divergence", "standard"]),
     ]
     for extra, words in cases:
         p = run_sph(["input/circle2d.nml", f"output.dir={d}"] + extra)

@@ -22,6 +22,7 @@ VARIANTS = [
     ["numerics.divergence=standard"],
     ["numerics.divergence=renormalised"],
     ["numerics.pressure_gradient=higher_order"],
+    ["numerics.pressure_gradient=renormalised", "numerics.divergence=renormalised"],
     ["numerics.shifting=.true."],
     ["numerics.visc_reconstruction=.true."],
     ["numerics.visc_reconstruction=.true.", "numerics.viscosity=monaghan", "numerics.alpha=0.02"],

@@ -82,6 +82,15 @@ def test_reconstructed_viscosity_bitwise(scratch):
                               "numerics.renormalise=step"], "recon", [3])
 
 
+def test_adjoint_pressure_gradient_bitwise(scratch):
+    # (H2) reads L_j and lambda_j of halo partners (two exchanges a stage);
+    # with renormalise=step they are the step's first ones
+    for when in ("stage", "step"):
+        check_agreement(scratch, ["numerics.pressure_gradient=renormalised",
+                                  "numerics.divergence=renormalised",
+                                  f"numerics.renormalise={when}"], "adjoint_" + when, [3])
+
+
 def test_metis_bitwise_at_2_and_3_ranks(scratch):
     check_agreement(scratch, ["parallel.decomposition=metis"], "metis", [2, 3])
 
