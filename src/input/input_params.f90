@@ -200,7 +200,8 @@ module input_params
           '', 'tensile control exponent n of (W_ij/W(dx))^n'), &
     var_t(G_NUMERICS, 'pressure_gradient', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, &
           0.0_wp, CH_PRESSURE_GRADIENT, '', 'standard: the (p_i + p_j) form; higher_order: ' // &
-          'the renormalised (p_j - p_i) form away from the free surface', &
+          'the renormalised (p_j - p_i) form away from the free surface; renormalised: ' // &
+          '(p_i L_i + p_j L_j), the adjoint of the renormalised divergence', &
           doc='`standard`: -(1/rho_i) Sum_j (p_i + p_j) grad_i W_ij V_j (E4), ' // &
               'conservative; `higher_order`: inside the fluid (free-surface indicator ' // &
               'lambda >= 0.9) 0.9 times the consistent -(1/rho_i) L_i Sum_j (p_j - p_i) ' // &
@@ -208,7 +209,12 @@ module input_params
               '0.1 times the standard form; the standard form on and near the free ' // &
               'surface (lambda <= 0.7), a linear blend between (doc/numerics.md, "the ' // &
               'blend"). Not conservative; use it with `divergence = ''renormalised''` ' // &
-              '(alone it lost 17 % of the rotating square''s kinetic energy)'), &
+              '(alone it lost 17 % of the rotating square''s kinetic energy); ' // &
+              '`renormalised`: -(1/rho_i) Sum_j (p_i B_i + p_j B_j) grad_i W_ij V_j (H2), ' // &
+              'B = L (E3) ramped to I across the outer layer of the free surface (lambda ' // &
+              'from 0.55 to 0.4), the adjoint of the renormalised divergence, which it ' // &
+              'requires and which then uses B too: the pair keeps kinetic plus internal ' // &
+              'energy and linear momentum (doc/theory.md, H2)'), &
     var_t(G_NUMERICS, 'divergence', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_DIVERGENCE, '', 'velocity divergence of the continuity equation: standard, ' // &
           'or renormalised (exact for linear u)', &
