@@ -14,15 +14,27 @@ def time_mean(t, e):
     return area / (t[-1] - t[0])
 
 
-def test_recipe_velocity_order(scratch):
+def orders(dx, err):
+    """Observed orders between successive levels, and by least squares."""
+    steps = [math.log(err[k] / err[k + 1]) / math.log(dx[k] / dx[k + 1])
+             for k in range(len(dx) - 1)]
+    lx = [math.log(v) for v in dx]
+    ly = [math.log(v) for v in err]
+    mx, my = sum(lx) / len(lx), sum(ly) / len(ly)
+    slope = sum((a - mx) * (b - my) for a, b in zip(lx, ly)) / sum((a - mx) ** 2 for a in lx)
+    return steps, slope
+
+
+def test_recipe_velocity_and_energy_orders(scratch):
     # circle2d_convergence to t A0 = 1 at 314, 1,257 and 5,027 particles
-    # (h/dx 1.41, 2, 2.83; c0 8.8, 12.5, 17.7; alpha 0.008; the
-    # reconstructed viscosity, Antuono's diffusion): time-mean RMS velocity
-    # error measured 0.495, 0.161, 0.086 % of A0 R, orders 1.62 and 0.91
-    # between the levels (the recipe before the reconstructed viscosity:
-    # 0.475, 0.237, 0.134 % to t A0 = 0.5, orders 1.00 and 0.82).  The
-    # issue's bar: at least 0.8, by least squares and at each step.
-    dx, err = [], []
+    # (h/dx 1.41, 2, 2.83; c0 7.4, 12.5, 21.0; alpha 0.008; the adjoint
+    # pressure gradient H2, the reconstructed viscosity, Antuono's
+    # diffusion), on one rank: time-mean RMS velocity error measured 0.991,
+    # 0.434, 0.136 % of A0 R (orders 1.19 and 1.68, least squares 1.44);
+    # time-mean kinetic-energy error 0.149, 0.061, 0.022 % (orders 1.27
+    # and 1.46, least squares 1.37).  The issue's bar for the quick check is
+    # 0.8; asserted here: at least 1, by least squares and at each step.
+    dx, vel, ke = [], [], []
     for n in LEVELS:
         d = scratch(f"conv{n}") / "run"
         p = run_sph(["input/circle2d_convergence.nml", f"particles.n={n}", "run.t_end=1.0",
@@ -33,12 +45,11 @@ def test_recipe_velocity_order(scratch):
         ts = read_timeseries(d / "timeseries.csv")
         assert abs(ts["time"][-1] - 1.0) < 1e-12
         dx.append(math.sqrt(math.pi / n_real))
-        err.append(time_mean(ts["time"], ts["rms_velocity_error"]))
-    steps = [math.log(err[k] / err[k + 1]) / math.log(dx[k] / dx[k + 1]) for k in range(2)]
-    lx = [math.log(v) for v in dx]
-    ly = [math.log(v) for v in err]
-    mx, my = sum(lx) / 3, sum(ly) / 3
-    slope = sum((a - mx) * (b - my) for a, b in zip(lx, ly)) / sum((a - mx) ** 2 for a in lx)
-    print(f"    velocity errors {[f'{100 * e:.3f} %' for e in err]}, orders "
-          f"{[f'{s:.2f}' for s in steps]}, least squares {slope:.2f}")
-    assert slope >= 0.8 and min(steps) >= 0.8, (err, steps, slope)
+        vel.append(time_mean(ts["time"], ts["rms_velocity_error"]))
+        ke.append(time_mean(ts["time"], [a / b - 1 for a, b in zip(ts["kinetic_energy"],
+                                                                 ts["kinetic_energy_exact"])]))
+    for name, err in (("velocity", vel), ("kinetic energy", ke)):
+        steps, slope = orders(dx, err)
+        print(f"    {name} errors {[f'{100 * e:.3f} %' for e in err]}, orders "
+              f"{[f'{s:.2f}' for s in steps]}, least squares {slope:.2f}")
+        assert slope >= 1 and min(steps) >= 1, (name, err, steps, slope)
