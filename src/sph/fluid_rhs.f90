@@ -689,28 +689,34 @@ contains
   !> the normal n_i = -nu_i/|nu_i|, nu_i = L_i Sum_j g V_j (the renormalised
   !> gradient of the kernel sum, Marrone et al. 2010) is removed, so that the
   !> surface does not diffuse outwards.  dr and lambda of halo slots are
-  !> zero.  Positions only: the caller adds dr to x.
-  subroutine rhs_shift(prm, n, ntot, x, rho, m, nl, coef, dx, dr, lambda)
+  !> zero.  Positions only: the caller adds dr to x.  The sums use the
+  !> work arrays (no allocation per call).
+  subroutine rhs_shift(prm, n, ntot, x, rho, m, nl, coef, dx, dr, lambda, work)
     type(rhs_params_t), intent(in) :: prm
     integer, intent(in) :: n, ntot
     real(wp), intent(in) :: x(3, ntot), rho(ntot), m(ntot), coef, dx
     type(neighbour_list_t), intent(in) :: nl
     real(wp), intent(out) :: dr(3, ntot), lambda(ntot)
-    real(wp), allocatable :: mm(:, :), s0(:, :), s1(:, :), vol(:)
-    real(wp), allocatable :: xd(:), yd(:), zd(:), r2l(:), fl(:), wl(:)
-    integer, allocatable :: jl(:)
-    real(wp) :: xij(3), g(3), xx(6), mi(6), s0i(3), s1i(3), w, inv_wdx, s2, vi, vj
+    type(rhs_work_t), intent(inout), optional, target :: work
+    type(rhs_work_t), target :: own
+    type(rhs_work_t), pointer :: w
+    real(wp) :: xij(3), g(3), xx(6), mi(6), s0i(3), s1i(3), wgt, inv_wdx, s2, vi, vj
     real(wp) :: inv(3, 3), det, nu(3), nn_(3), a
-    integer :: i, j, l, nn, nb, kk, nr
-    allocate(mm(6, ntot), s0(3, ntot), s1(3, ntot), vol(ntot))
-    mm = 0
-    s0 = 0
-    s1 = 0
-    vol = m(1:ntot) / rho(1:ntot)
+    integer :: i, j, l, nn, nb, kk
+    w => own
+    if (present(work)) w => work
+    call rhs_work_reserve(w, ntot, nl, REC_SHORT)
+    ! the work arrays: M in mom(1:6), the sum of g V in mom(7:9), the
+    ! weighted sum in acc(1:3), V in rec(R_VOL); the row in jl and rb
+    associate(mm => w%mom(1:6, :), s0 => w%mom(7:9, :), s1 => w%acc(1:3, :), &
+              vol => w%rec(R_VOL, :), jl => w%jl, xd => w%rb(:, 1), yd => w%rb(:, 2), &
+              zd => w%rb(:, 3), r2l => w%rb(:, 4), fl => w%rb(:, 5), wl => w%rb(:, 6))
+    mm(:, 1:ntot) = 0
+    s0(:, 1:ntot) = 0
+    s1(:, 1:ntot) = 0
+    vol(1:ntot) = m(1:ntot) / rho(1:ntot)
     s2 = prm%kernel%support**2
     inv_wdx = 1 / kernel_w(prm%kernel, dx)
-    nr = row_capacity(nl)
-    allocate(jl(nr), xd(nr), yd(nr), zd(nr), r2l(nr), fl(nr), wl(nr))
     do kk = 1, nl%n_rows
       i = nl%row(kk)
       call in_range_soa(kk, i, x, s2, nl, nn, nb, jl, xd, yd, zd, r2l)
@@ -725,12 +731,12 @@ contains
         xij = [xd(l), yd(l), zd(l)]
         g = fl(l) * xij
         vj = vol(j)
-        w = 1 + SHIFT_R * (wl(l) * inv_wdx)**SHIFT_N
+        wgt = 1 + SHIFT_R * (wl(l) * inv_wdx)**SHIFT_N
         ! g V_j for i, -g V_i for j (grad_j W_ji = -g)
         s0i = s0i + vj * g
         s0(:, j) = s0(:, j) - vi * g
-        s1i = s1i + (w * vj) * g
-        s1(:, j) = s1(:, j) - (w * vi) * g
+        s1i = s1i + (wgt * vj) * g
+        s1(:, j) = s1(:, j) - (wgt * vi) * g
         xx = moment_term(fl(l), xij)
         mi = mi + vj * xx
         mm(:, j) = mm(:, j) + vi * xx
@@ -755,6 +761,7 @@ contains
       nn_ = -nu / a
       dr(:, i) = dr(:, i) - sum(dr(:, i) * nn_) * nn_
     end do
+    end associate
   end subroutine rhs_shift
 
 end module fluid_rhs

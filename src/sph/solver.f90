@@ -418,7 +418,6 @@ contains
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
     real(wp), intent(in) :: dt
-    real(wp), allocatable :: lam(:)
     real(wp) :: h, coef, dmax
     integer :: n, ntot
     n = s%parts%n
@@ -426,9 +425,8 @@ contains
     call decomp_refresh(s%dc, env, s%parts)
     ntot = n + s%parts%n_halo
     coef = (dt * (s%rhs%c0 + s%umax) / h) * (s%umax / s%rhs%c0) * (2 * h)**2
-    allocate(lam(ntot))
     call rhs_shift(s%rhs, n, ntot, s%parts%x, s%parts%rho, s%parts%m, s%lm%nl, coef, &
-                   s%shift_dx, s%dr, lam)
+                   s%shift_dx, s%dr, s%lambda(1, :), s%rw)
     s%parts%x(:, 1:n) = s%parts%x(:, 1:n) + s%dr(:, 1:n)
     dmax = 0
     if (n > 0) dmax = sqrt(maxval(sum(s%dr(:, 1:n)**2, dim=1)))
