@@ -57,7 +57,7 @@ LIB_OBJ   := $(sort $(addprefix $(BUILD)/,$(addsuffix .o,$(basename $(notdir $(L
 vpath %.f90 $(SRC_DIRS) tests
 vpath %.F90 $(SRC_DIRS)
 
-.PHONY: all sph debug test unit bench decomp-study validate input-doc clean
+.PHONY: all sph debug test unit bench decomp-study validate validate-long input-doc clean
 all: sph
 
 # copy then rename: replaces ./sph atomically, even while it is running
@@ -201,6 +201,11 @@ test: sph $(UNIT_EXE)
 # runs/validate/; VALIDATE_ARGS passes options (e.g. --reuse, --quick).
 validate: sph
 	$(PYTHON) postproc/validate $(VALIDATE_ARGS)
+
+# The same with the convergent recipe's fifth level (321,792 particles,
+# about 15 hours on two cores); earlier runs are reused.
+validate-long: sph
+	$(PYTHON) postproc/validate --reuse --fifth $(VALIDATE_ARGS)
 
 # Fixed-step benchmarks at 1 and 2 ranks (minutes; needs an idle machine):
 # seconds per step, right-hand sides and particle updates per second, peak

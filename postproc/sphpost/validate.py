@@ -55,6 +55,9 @@ SQUARE_STUDIES = {"square_rotation": [2500, 10000, 22500],
 # The convergent recipe (input/circle2d_convergence.nml, doc/convergence.md):
 # particles.n alone changes; its levels are those of its n_ref
 CONV_N = [1257, 5027, 20107, 80425]
+# its fifth level (--fifth, make validate-long): n_ref 16^2, some 15 hours
+# on two cores
+CONV_FIFTH = 321792
 QUICK = {"circle2d": [1250, 2500], "circle2d_convergence": [314, 1257], "ellipsoid3d": [2000],
          "fig4": 1000,
          "square_rotation": [1000, 2500], "square_vortical": [1000, 2500]}
@@ -716,6 +719,9 @@ def command(argv, prog="postproc/validate"):
                     help="the studies to run (default: all; the squares only when their "
                          "input files exist)")
     ap.add_argument("--skip-3d", action="store_true", help="leave out ellipsoid3d")
+    ap.add_argument("--fifth", action="store_true",
+                    help="add the convergent recipe's fifth level, 321,792 particles "
+                         "(about 15 hours on two cores)")
     ap.add_argument("--reuse", action="store_true",
                     help="reuse finished runs found in --runs; run only the missing ones")
     args = ap.parse_args(argv)
@@ -740,11 +746,14 @@ def command(argv, prog="postproc/validate"):
     circle_std = jobs_for("circle2d", circle_n, (2.0, 0.5), STANDARD, "_standard")
     circle_conv = []
     if circle_n:
-        # the recipe's cost grows as N^2 (neighbours and steps grow with N)
+        # the recipe's cost grows as N^2.1 (neighbours and steps grow with
+        # N); its runs are the input file's own (the commands in its header)
         nml = os.path.join(ROOT, "input", "circle2d_convergence.nml")
-        circle_conv = [Job("circle2d", n, nml, ["run.t_end=2.0", "output.dt=0.5"],
-                           os.path.join(args.runs, f"circle2d_convergence_{n}"), 2e-7 * n**2)
-                       for n in (QUICK["circle2d_convergence"] if args.quick else CONV_N)]
+        conv_n = QUICK["circle2d_convergence"] if args.quick else (
+            CONV_N + ([CONV_FIFTH] if args.fifth else []))
+        circle_conv = [Job("circle2d", n, nml, [],
+                           os.path.join(args.runs, f"circle2d_convergence_{n}"), 1e-7 * n**2.1)
+                       for n in conv_n]
     ell = [] if args.skip_3d or "ellipsoid3d" not in args.cases else jobs_for(
         "ellipsoid3d", QUICK["ellipsoid3d"] if args.quick else ELLIPSOID_N, (1.0, 0.5))
     squares = {}
