@@ -48,10 +48,10 @@ FIG4 = [("input file: standard gradient, shifting", []),
         ("paper's: standard gradient, tensile control",
          ["numerics.shifting=.false.", "numerics.tensile=.true."])]
 ELLIPSOID_N = [10000, 40000]
-# Square patches (issue 5): run when input/<case>.nml exists.  Hook: three
-# resolutions each; adjust N and the overrides when the cases land.
-SQUARE_STUDIES = {"square_rotation": [2500, 10000, 22500],
-                  "square_vortical": [2500, 10000, 22500]}
+# Square patches: run when input/<case>.nml exists, at three resolutions
+# (100^2, 200^2 and 300^2 particles)
+SQUARE_STUDIES = {"square_rotation": [10000, 40000, 90000],
+                  "square_vortical": [10000, 40000, 90000]}
 # The convergent recipe (input/circle2d_convergence.nml, doc/convergence.md):
 # particles.n alone changes; its levels are those of its n_ref
 CONV_N = [1257, 5027, 20107, 80425]
@@ -267,6 +267,36 @@ def square_diagnostics(run, job):
             m = re.search(re.escape(what) + r" at [^=\n]*=\s*(\S+)", text)
             out[key] = m.group(1) if m else "none"
     return out
+
+
+def self_convergence(case, runs, jobs):
+    """The two finest runs of a square patch against each other, as the
+    issue asks: the rotating square's filtered probe pressure (largest and
+    RMS difference over the run, in % of |p_A(0)|), the vortical square's
+    first cavity (relative difference of the reconnection times, %)."""
+    import numpy as np
+    if len(runs) < 2:
+        return None
+    a, b = runs[-2], runs[-1]
+    if case == "square_rotation":
+        c = b.case
+        fc, _ = sp.cutoff(c, sp.DEFAULT_ACOUSTIC_FRACTION)
+        ta, _, fa = sp.lowpass(a.time, a.column("p_probe_1"), fc, sp.DEFAULT_TRANSITION)
+        tb, _, fb = sp.lowpass(b.time, b.column("p_probe_1"), fc, sp.DEFAULT_TRANSITION)
+        t = tb[(tb >= max(ta[0], tb[0])) & (tb <= min(ta[-1], tb[-1]))]
+        d = np.interp(t, ta, fa) - np.interp(t, tb, fb)
+        p0 = abs(b.column("p_probe_1")[0])
+        return (f"the two finest runs (N = {a.n_particles:,} and {b.n_particles:,}): filtered "
+                f"p_A differs by at most {100 * np.max(np.abs(d)) / p0:.2f} % of |p_A(0)| over "
+                f"t omega in [{t[0] * c.rate:.1f}, {t[-1] * c.rate:.1f}] (RMS "
+                f"{100 * np.sqrt(np.mean(d ** 2)) / p0:.2f} %; bar: 1 %)")
+    ta, tb = (square_diagnostics(r, j)["t_cavity"] for r, j in zip(runs[-2:], jobs[-2:]))
+    try:
+        diff = f"{100 * abs(float(tb) / float(ta) - 1):.1f} %"
+    except ValueError:
+        diff = "-"
+    return (f"the two finest runs (N = {a.n_particles:,} and {b.n_particles:,}): first cavity "
+            f"at t V0/L = {ta} and {tb}, {diff} apart (bar: 2 %)")
 
 
 def pa_stats(run):
@@ -643,6 +673,10 @@ def write_report(path, doc, circle, ell, squares, args, total_wall, jobs, load):
             w(f"| {n:,} | {d['ke']} | {d['am']} | {d['sym']} | {d['sym_max']} | "
               f"{d['pieces']} | {d['holes']} | {d['t_hole']} | {d['t_cavity']} | {ratio} |")
         w("")
+        sc = self_convergence(case, sq["runs"], sq["jobs"])
+        if sc:
+            w(f"Self-convergence, {sc}.")
+            w("")
         if "fig4" in sq:
             png, f4 = sq["fig4"]
             w(f"Figure 4 of the paper: p_A at N = {f4[0].n_particles:,} with three schemes "
