@@ -21,14 +21,16 @@ from . import core as sp
 
 PROG = "convergence"
 
-# (key in the errors dict, which average, column title, legend label)
+# (name in the errors dict, key of sphpost.stretching_errors, which average,
+# column title, legend label)
 QUANTITIES = [
-    ("axis_max", "mean", "axis", "semi-axis (time mean, largest axis)"),
-    ("pos", "mean", "pos", "RMS position vs Lagrangian map (time mean)"),
-    ("vel", "mean", "vel", "RMS velocity (time mean)"),
-    ("ke", "final", "KE end", "kinetic energy change at the end"),
-    ("p_raw", "mean", "p raw", "centre pressure, raw (time mean)"),
-    ("p_filt", "mean", "p filt", "centre pressure, filtered (time mean)"),
+    ("axis_max", "axis_max", "mean", "axis", "semi-axis (time mean, largest axis)"),
+    ("pos", "pos", "mean", "pos", "RMS position vs Lagrangian map (time mean)"),
+    ("vel", "vel", "mean", "vel", "RMS velocity (time mean)"),
+    ("ke_mean", "ke", "mean", "KE mean", "kinetic energy error (time mean)"),
+    ("ke", "ke", "final", "KE end", "kinetic energy change at the end"),
+    ("p_raw", "p_raw", "mean", "p raw", "centre pressure, raw (time mean)"),
+    ("p_filt", "p_filt", "mean", "p filt", "centre pressure, filtered (time mean)"),
 ]
 
 
@@ -39,9 +41,9 @@ def collect(runs, fopts):
         fc, tw, _ = sp.filter_from_args(run.case, fopts)
         res = sp.stretching_errors(run, fc, tw)
         e = {}
-        for key, avg, _, _ in QUANTITIES:
+        for name, key, avg, _, _ in QUANTITIES:
             if key in res[avg]:
-                e[key] = abs(res[avg][key])
+                e[name] = abs(res[avg][key])
         rows.append({"run": run.path, "n": run.n_particles, "dx": run.dx / run.case.length,
                      "t_end": float(run.time[-1]), "errors": e,
                      "filter_bias": res["mean"].get("p_filt_bias")})
@@ -92,8 +94,8 @@ def study(runs, fopts, output="convergence.png", title=None, echo=print):
     h = [r["dx"] for r in rows]
 
     echo(f"{case.name}: {len(rows)} runs to {case.time_label} = {rows[0]['t_end'] * case.rate:g}; "
-         "errors in % (mean: time average over the run; KE: at the end)")
-    echo(f"{'N':>9} {'dx/R':>8} " + " ".join(f"{q[2]:>8}" for q in keys))
+         "errors in % (time averages over the run but KE end, at the end)")
+    echo(f"{'N':>9} {'dx/R':>8} " + " ".join(f"{q[3]:>8}" for q in keys))
     for r in rows:
         echo(f"{r['n']:9d} {r['dx']:8.5f} "
              + " ".join(f"{100 * r['errors'][q[0]]:8.4f}" for q in keys))
@@ -111,11 +113,11 @@ def study(runs, fopts, output="convergence.png", title=None, echo=print):
 
     plt = sp.use_agg()
     fig, ax = plt.subplots(figsize=(8, 7))
-    markers = "osD^vx"
+    markers = "osD^vxP"
     for k, q in enumerate(keys):
         e = [100 * r["errors"][q[0]] for r in rows]
         ax.loglog(h, e, marker=markers[k % len(markers)],
-                  label=f"{q[3]}: order {orders[q[0]][1]:.2f}")
+                  label=f"{q[4]}: order {orders[q[0]][1]:.2f}")
     # reference slopes through the middle of the data
     hh = np.array([min(h), max(h)])
     allv = [100 * r["errors"][q[0]] for r in rows for q in keys if r["errors"][q[0]] > 0]

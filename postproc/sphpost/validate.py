@@ -141,6 +141,11 @@ def pct(x, nd=2):
     return "-" if x is None or x != x else f"{100 * x:.{nd}f}"
 
 
+def sig(x):
+    """x in % to three significant digits (the errors span four decades)."""
+    return "-" if x is None or x != x else f"{100 * x:.3g}"
+
+
 def rel(path, doc):
     return os.path.relpath(path, doc)
 
@@ -315,20 +320,20 @@ def stretching_tables(w, study, doc, fig_key):
     runs, res = study["runs"], study["res"]
     c = runs[0].case
     w("| N | dx/R | semi-axis mean | semi-axis end | position mean | position end | "
-      "velocity mean | velocity end | KE end | p raw mean | p filtered mean |")
-    w("|---|---|---|---|---|---|---|---|---|---|---|")
+      "velocity mean | velocity end | KE mean | KE end | p raw mean | p filtered mean |")
+    w("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r, e in zip(runs, res):
         m, f = e["mean"], e["final"]
-        w(f"| {r.n_particles:,} | {r.dx / c.length:.4f} | {pct(m['axis_max'])} | "
-          f"{pct(f['axis_max'])} | {pct(m['pos'])} | {pct(f['pos'])} | {pct(m['vel'])} | "
-          f"{pct(f['vel'])} | {pct(f['ke'])} | {pct(m.get('p_raw'))} | "
-          f"{pct(m.get('p_filt'))} |")
+        w(f"| {r.n_particles:,} | {r.dx / c.length:.4f} | {sig(m['axis_max'])} | "
+          f"{sig(f['axis_max'])} | {sig(m['pos'])} | {sig(f['pos'])} | {sig(m['vel'])} | "
+          f"{sig(f['vel'])} | {sig(m['ke'])} | {sig(f['ke'])} | {sig(m.get('p_raw'))} | "
+          f"{sig(m.get('p_filt'))} |")
     w("")
     if "conv" in study:
         conv = study["conv"]
         names = {"axis_max": "semi-axis mean", "pos": "position mean",
-                 "vel": "velocity mean", "ke": "KE end", "p_raw": "p raw mean",
-                 "p_filt": "p filtered mean"}
+                 "vel": "velocity mean", "ke_mean": "KE mean", "ke": "KE end",
+                 "p_raw": "p raw mean", "p_filt": "p filtered mean"}
         keys = [k for k in names if k in conv["orders"]]
         w("Observed orders of convergence in dx (between successive resolutions, and the "
           "least-squares slope over all):")
@@ -462,11 +467,12 @@ def write_report(path, doc, circle, ell, squares, args, total_wall, jobs, load):
         conv = circle.get("convergent")
         if conv and "conv" in conv:
             o = conv["conv"]["orders"]
-            met = min(o["vel"]["lsq"], o["ke"]["lsq"]) >= 1 and o["p_filt"]["lsq"] > 1
+            met = min(o["vel"]["lsq"], o["ke_mean"]["lsq"]) >= 1 and o["p_filt"]["lsq"] > 1
             verdict = "met" if met else "closer, not met: doc/convergence.md"
             w(f"| the same orders with the convergent recipe (input/circle2d_convergence.nml) | "
               f"linear; above 1 | velocity {o['vel']['lsq']:.2f}, kinetic energy "
-              f"{o['ke']['lsq']:.2f}, filtered pressure {o['p_filt']['lsq']:.2f} (least squares); "
+              f"{o['ke_mean']['lsq']:.2f}, filtered pressure {o['p_filt']['lsq']:.2f} (least "
+              "squares of the time means); "
               f"velocity {pct(conv['res'][-1]['mean']['vel'])} % at N = "
               f"{conv['runs'][-1].n_particles:,} | {verdict} |")
         w("")
