@@ -555,13 +555,14 @@ contains
       rec(R_RT, 1:ntot) = prm%tensile_eps * max(0.0_wp, -p(1:ntot)) * rec(R_IRHO, 1:ntot)**2
       inv_wdx = 1 / kernel_w(prm%kernel, prm%tensile_dx)
     end if
-    if (renorm) rec(R_L + 1:R_L + 6, 1:ntot) = lmat(:, 1:ntot)
-    ! (H2): B_i = b_i L_i + (1 - b_i) I for both operators of the pair
     if (adjoint) then
+      ! (H2): B_i = b_i L_i + (1 - b_i) I for both operators of the pair
       do i = 1, ntot
         b = max(0.0_wp, min(1.0_wp, (lambda(i) - LAMBDA_OUTER) / (LAMBDA_SURFACE - LAMBDA_OUTER)))
         rec(R_L + 1:R_L + 6, i) = b * lmat(:, i) + (1 - b) * IDENTITY6
       end do
+    else if (renorm) then
+      rec(R_L + 1:R_L + 6, 1:ntot) = lmat(:, 1:ntot)
     end if
     if (recon) rec(R_S + 1:R_S + 6, 1:ntot) = strain(:, 1:ntot)
     ! (H1): the pressure with p = 0 on the free surface (pf), and the
@@ -579,12 +580,11 @@ contains
     ! the common configurations have their own vectorised copies of the loop
     associate(r => w%rb, nr => size(w%jl), nrec => size(w%rec, 1))
     if (renorm_div .and. corrected .and. .not. (antuono .or. tensile .or. recon .or. &
-        adjoint .or. prm%generic_loop) .and. delta_visc) then
+        prm%generic_loop) .and. delta_visc) then
       call rows_renormalised(prm%kernel, c, ntot, x, grad_rho, nl, nrec, w%rec, nr, w%jl, &
                  r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), r(:, 9), &
                  r(:, 10), w%acc)
-    else if (.not. (renorm .or. antuono .or. tensile .or. recon .or. adjoint .or. &
-             prm%generic_loop) &
+    else if (.not. (renorm .or. antuono .or. tensile .or. recon .or. prm%generic_loop) &
              .and. delta_visc) then
       call rows_standard(prm%kernel, c, ntot, x, grad_rho, nl, nrec, w%rec, nr, w%jl, &
                  r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), r(:, 9), &

@@ -251,13 +251,10 @@ contains
                                    s%lambda(1, :), lmat=s%lmat, work=s%rw)
         end if
         if (antuono) call decomp_refresh_field(s%dc, env, pt%n, s%grad_rho)
-        ! p = 0 on free-surface partners: their lambda is needed too
-        if (corrected) call decomp_refresh_field(s%dc, env, pt%n, s%lambda)
-        ! (H2) reads B_j of halo partners, from their L_j and lambda_j
-        if (adjoint) then
-          call decomp_refresh_field(s%dc, env, pt%n, s%lmat)
-          call decomp_refresh_field(s%dc, env, pt%n, s%lambda)
-        end if
+        ! the lambda of halo partners: (H1) p = 0 on free-surface ones, (H2)
+        ! B_j from L_j and lambda_j
+        if (corrected .or. adjoint) call decomp_refresh_field(s%dc, env, pt%n, s%lambda)
+        if (adjoint) call decomp_refresh_field(s%dc, env, pt%n, s%lmat)
         if (recon) call strain_rate(s, env)
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
                           s%lm%nl, s%drho, s%du, s%lambda(1, :), s%lmat, s%rw, s%strain)
