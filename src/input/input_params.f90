@@ -199,22 +199,18 @@ module input_params
     var_t(G_NUMERICS, 'tensile_n', T_INT, SCALAR, LO_GE, HI_LE, 1.0_wp, 8.0_wp, CH_NONE, &
           '', 'tensile control exponent n of (W_ij/W(dx))^n'), &
     var_t(G_NUMERICS, 'pressure_gradient', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, &
-          0.0_wp, CH_PRESSURE_GRADIENT, '', 'standard: the (p_i + p_j) form; higher_order: ' // &
-          'the renormalised (p_j - p_i) form away from the free surface; renormalised: ' // &
-          '(p_i L_i + p_j L_j), the adjoint of the renormalised divergence', &
+          0.0_wp, CH_PRESSURE_GRADIENT, '', 'standard: (p_i + p_j); higher_order: L_i ' // &
+          '(p_j - p_i) inside; renormalised: (p_i L_i + p_j L_j), keeps energy', &
           doc='`standard`: -(1/rho_i) Sum_j (p_i + p_j) grad_i W_ij V_j (E4), ' // &
-              'conservative; `higher_order`: inside the fluid (free-surface indicator ' // &
-              'lambda >= 0.9) 0.9 times the consistent -(1/rho_i) L_i Sum_j (p_j - p_i) ' // &
-              'grad_i W_ij V_j with p = 0 on free-surface particles (lambda < 0.55) plus ' // &
-              '0.1 times the standard form; the standard form on and near the free ' // &
-              'surface (lambda <= 0.7), a linear blend between (doc/numerics.md, "the ' // &
-              'blend"). Not conservative; use it with `divergence = ''renormalised''` ' // &
-              '(alone it lost 17 % of the rotating square''s kinetic energy); ' // &
-              '`renormalised`: -(1/rho_i) Sum_j (p_i B_i + p_j B_j) grad_i W_ij V_j (H2), ' // &
-              'B = L (E3) ramped to I across the outer layer of the free surface (lambda ' // &
-              'from 0.55 to 0.4), the adjoint of the renormalised divergence, which it ' // &
-              'requires and which then uses B too: the pair keeps kinetic plus internal ' // &
-              'energy and linear momentum (doc/theory.md, H2)'), &
+              'conservative; `higher_order` (H1): inside the fluid (lambda >= 0.9) 0.9 ' // &
+              'times -(1/rho_i) L_i Sum_j (p_j - p_i) grad_i W_ij V_j with p = 0 on ' // &
+              'free-surface particles (lambda < 0.55) plus 0.1 times E4; E4 for lambda ' // &
+              '<= 0.7, blended between. Not conservative; use it with `divergence = ' // &
+              '''renormalised''` (alone it lost 17 % of the rotating square''s kinetic ' // &
+              'energy); `renormalised` (H2): -(1/rho_i) Sum_j (p_i B_i + p_j B_j) grad_i ' // &
+              'W_ij V_j, B = L ramped to I for lambda from 0.55 to 0.4, the adjoint of ' // &
+              'the renormalised divergence (required; it uses B too): kinetic plus ' // &
+              'internal energy kept (doc/theory.md)'), &
     var_t(G_NUMERICS, 'divergence', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_DIVERGENCE, '', 'velocity divergence of the continuity equation: standard, ' // &
           'or renormalised (exact for linear u)', &
