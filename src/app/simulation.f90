@@ -9,6 +9,7 @@ module simulation
   use neighbours, only: neighbour_counts
   use config, only: config_t, config_dim, config_echo, config_case, config_scaled, &
                     config_resolution_scale
+  use input_params, only: VISCOSITIES, DIFFUSIONS, PRESSURE_GRADIENTS
   use kernels, only: kernel_init, kernel_kind_of
   use eos, only: eos_init, EOS_LINEAR, EOS_TAIT
   use fluid_rhs, only: VISC_NONE, VISC_DELTA, VISC_MONAGHAN, DIFF_NONE, DIFF_MOLTENI, &
@@ -299,35 +300,17 @@ contains
     s%rhs%tensile_eps = merge(cfg%numerics%tensile_eps, 0.0_wp, cfg%numerics%tensile)
     s%rhs%tensile_n = cfg%numerics%tensile_n
     s%rhs%tensile_dx = dx
-    select case (cfg%numerics%pressure_gradient)
-    case ('higher_order')
-      s%rhs%pressure_gradient = PGRAD_HIGHER_ORDER
-    case ('renormalised')
-      s%rhs%pressure_gradient = PGRAD_RENORMALISED
-    case default
-      s%rhs%pressure_gradient = PGRAD_STANDARD
-    end select
+    s%rhs%pressure_gradient = code_of(cfg%numerics%pressure_gradient, PRESSURE_GRADIENTS, &
+                                      [PGRAD_STANDARD, PGRAD_HIGHER_ORDER, PGRAD_RENORMALISED])
     s%rhs%divergence = merge(DIV_RENORMALISED, DIV_STANDARD, &
                              cfg%numerics%divergence == 'renormalised')
     s%shifting = cfg%numerics%shifting
     s%renormalise_per_step = cfg%numerics%renormalise == 'step'
     s%shift_dx = dx
-    select case (cfg%numerics%viscosity)
-    case ('none')
-      s%rhs%viscosity = VISC_NONE
-    case ('monaghan')
-      s%rhs%viscosity = VISC_MONAGHAN
-    case default
-      s%rhs%viscosity = VISC_DELTA
-    end select
-    select case (cfg%numerics%diffusion)
-    case ('none')
-      s%rhs%diffusion = DIFF_NONE
-    case ('antuono')
-      s%rhs%diffusion = DIFF_ANTUONO
-    case default
-      s%rhs%diffusion = DIFF_MOLTENI
-    end select
+    s%rhs%viscosity = code_of(cfg%numerics%viscosity, VISCOSITIES, &
+                              [VISC_DELTA, VISC_MONAGHAN, VISC_NONE])
+    s%rhs%diffusion = code_of(cfg%numerics%diffusion, DIFFUSIONS, &
+                              [DIFF_MOLTENI, DIFF_ANTUONO, DIFF_NONE])
     s%integ%scheme = merge(SCHEME_PC2, SCHEME_RK4, cfg%numerics%integrator == 'pc2')
     s%cfl = cfg%numerics%cfl
     s%cfl_force = cfg%numerics%cfl_force
@@ -365,6 +348,18 @@ contains
       s%dc%comm_time = 0
     end if
   end subroutine setup
+
+  !> The code of a choice the input has already validated: codes(k) for
+  !> names(k) == name (the names in input_params' order).
+  integer function code_of(name, names, codes) result(code)
+    character(len=*), intent(in) :: name, names(:)
+    integer, intent(in) :: codes(:)
+    integer :: k
+    if (size(codes) /= size(names)) error stop 'code_of: one code per name'
+    k = findloc(names, name, dim=1)
+    if (k == 0) error stop 'code_of: a choice the input validation let through'
+    code = codes(k)
+  end function code_of
 
   !> particles.from: the packed particles are the initial positions
   !> (position_initial) of a snapshot of a packed run of the same case,

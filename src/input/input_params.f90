@@ -13,6 +13,7 @@ module input_params
             output_params_t, parallel_params_t, NAME_LEN, DIR_LEN_MAX, MAX_PROBES
   public :: group_t, GENERIC_GROUPS, GENERIC_VARS, G_RUN, G_PARTICLES, G_PHYSICS, &
             G_NUMERICS, G_OUTPUT, G_PARALLEL, CH_CASE, word_list
+  public :: VISCOSITIES, DIFFUSIONS, PRESSURE_GRADIENTS
 
   integer, parameter :: NAME_LEN = 32      !< length of the word-valued variables
   integer, parameter :: DIR_LEN_MAX = 255  !< longest output.dir allowed
