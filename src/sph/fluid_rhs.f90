@@ -63,6 +63,8 @@ module fluid_rhs
   integer, parameter :: LANES = 8
   !> the row buffers of pair_rows.inc (rhs_work_t%rb)
   integer, parameter :: N_ROWBUF = 14
+  !> the vectorised copies of the pair loop (rows_vectorised)
+  integer, parameter :: LOOP_STANDARD = 1, LOOP_RENORMALISED = 2, LOOP_ADJOINT = 3
   !> rhs_work_t%rec(:, j): what the pair loop reads of a partner j, in one
   !> place (two cache lines): u (1:3), rho, p, V, 1/rho, the pressure and
   !> weight of (H1), L (R_L + 1:R_L + 6) and R of (E7); the standard
@@ -187,14 +189,23 @@ contains
       rec(R_RHO, 1:ntot) = rho(1:ntot)
     end if
     acc(:, 1:ntot) = 0
-    if (with_g) then
-      call moment_rows(.true., prm%kernel, ntot, x, nl, size(rec, 1), rec, nr, w%jl, r(:, 1), &
-                       r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), r(:, 9), &
-                       r(:, 10), r(:, 11), r(:, 12), r(:, 13), r(:, 14), acc)
+    ! each call with constant options: each is vectorised (planar: 2D)
+    if (with_g .and. prm%dim == 2) then
+      call moment_rows(.true., .true., prm%kernel, ntot, x, nl, size(rec, 1), rec, nr, w%jl, &
+                       r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), &
+                       r(:, 9), r(:, 10), r(:, 11), r(:, 12), r(:, 13), r(:, 14), acc)
+    else if (with_g) then
+      call moment_rows(.true., .false., prm%kernel, ntot, x, nl, size(rec, 1), rec, nr, w%jl, &
+                       r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), &
+                       r(:, 9), r(:, 10), r(:, 11), r(:, 12), r(:, 13), r(:, 14), acc)
+    else if (prm%dim == 2) then
+      call moment_rows(.false., .true., prm%kernel, ntot, x, nl, size(rec, 1), rec, nr, w%jl, &
+                       r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), &
+                       r(:, 9), r(:, 10), r(:, 11), r(:, 12), r(:, 13), r(:, 14), acc)
     else
-      call moment_rows(.false., prm%kernel, ntot, x, nl, size(rec, 1), rec, nr, w%jl, r(:, 1), &
-                       r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), r(:, 9), &
-                       r(:, 10), r(:, 11), r(:, 12), r(:, 13), r(:, 14), acc)
+      call moment_rows(.false., .false., prm%kernel, ntot, x, nl, size(rec, 1), rec, nr, w%jl, &
+                       r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), &
+                       r(:, 9), r(:, 10), r(:, 11), r(:, 12), r(:, 13), r(:, 14), acc)
     end if
     lambda = 0
     if (present(lmat)) lmat = 0
@@ -216,10 +227,12 @@ contains
   !> (moment_term, the same for i and j) and, with_g, of the density
   !> gradient ((rho_j - rho_i) g V_j for i, (rho_i - rho_j)(-g) V_i for j),
   !> summed for i in lanes (as pair_rows.inc) and added to j in row order.
-  !> Called with with_g a constant, each call is vectorised.
-  subroutine moment_rows(with_g, kernel, ntot, x, nl, nrec, rec, nr, jl, dx, dy, dz, r2l, fl, &
-                         t1, t2, t3, t4, t5, t6, t7, t8, t9, acc)
-    logical, value :: with_g
+  !> Called with with_g a constant, each call is vectorised.  planar (2D):
+  !> only the xx, yy, xy moments and the x, y gradient, the others staying
+  !> zero (z = 0).
+  subroutine moment_rows(with_g, planar, kernel, ntot, x, nl, nrec, rec, nr, jl, dx, dy, dz, &
+                         r2l, fl, t1, t2, t3, t4, t5, t6, t7, t8, t9, acc)
+    logical, value :: with_g, planar
     type(kernel_t), intent(in) :: kernel
     integer, intent(in) :: ntot, nrec, nr
     real(wp), intent(in) :: x(3, ntot), rec(nrec, ntot)
@@ -234,58 +247,109 @@ contains
     s2 = kernel%support**2
     do kk = 1, nl%n_rows
       i = nl%row(kk)
-      call in_range_soa(kk, i, x, s2, nl, nn, nb, jl, dx, dy, dz, r2l)
+      if (planar) then
+        call in_range_2d(kk, i, x, s2, nl, nn, nb, jl, dx, dy, r2l)
+      else
+        call in_range_soa(kk, i, x, s2, nl, nn, nb, jl, dx, dy, dz, r2l)
+      end if
       call kernel_f_list(kernel, nb, r2l, fl)
       vi = rec(R_VOL, i)
       rhoi = rec(R_RHO, i)
       si = 0
-      do b = 0, nb - LANES, LANES
-        do k = 1, LANES
-          l = b + k
-          j = jl(l)
-          f = fl(l)
-          vj = rec(R_VOL, j)
-          xx = moment_term(f, [dx(l), dy(l), dz(l)])
-          t1(l) = xx(1)
-          t2(l) = xx(2)
-          t3(l) = xx(3)
-          t4(l) = xx(4)
-          t5(l) = xx(5)
-          t6(l) = xx(6)
-          si(k, 1) = si(k, 1) + vj * t1(l)
-          si(k, 2) = si(k, 2) + vj * t2(l)
-          si(k, 3) = si(k, 3) + vj * t3(l)
-          si(k, 4) = si(k, 4) + vj * t4(l)
-          si(k, 5) = si(k, 5) + vj * t5(l)
-          si(k, 6) = si(k, 6) + vj * t6(l)
-          t1(l) = vi * t1(l)
-          t2(l) = vi * t2(l)
-          t3(l) = vi * t3(l)
-          t4(l) = vi * t4(l)
-          t5(l) = vi * t5(l)
-          t6(l) = vi * t6(l)
-          if (with_g) then
-            ! (E2) (rho_j - rho_i) g V_j for i, (rho_i - rho_j)(-g) V_i for j
-            q = rec(R_RHO, j) - rhoi
-            gs = q * vj * f
-            si(k, 7) = si(k, 7) + gs * dx(l)
-            si(k, 8) = si(k, 8) + gs * dy(l)
-            si(k, 9) = si(k, 9) + gs * dz(l)
-            gs = q * vi * f
-            t7(l) = gs * dx(l)
-            t8(l) = gs * dy(l)
-            t9(l) = gs * dz(l)
-          end if
+      ! the loops over a vector of partners without a branch on planar, so
+      ! that each vectorises (with_g is constant in each call)
+      if (planar) then
+        do b = 0, nb - LANES, LANES
+          do k = 1, LANES
+            l = b + k
+            j = jl(l)
+            f = fl(l)
+            vj = rec(R_VOL, j)
+            ! z = 0: the z moments are neither summed nor kept
+            xx = moment_term(f, [dx(l), dy(l), 0.0_wp])
+            t1(l) = xx(1)
+            t2(l) = xx(2)
+            t4(l) = xx(4)
+            si(k, 1) = si(k, 1) + vj * t1(l)
+            si(k, 2) = si(k, 2) + vj * t2(l)
+            si(k, 4) = si(k, 4) + vj * t4(l)
+            t1(l) = vi * t1(l)
+            t2(l) = vi * t2(l)
+            t4(l) = vi * t4(l)
+            if (with_g) then
+              q = rec(R_RHO, j) - rhoi
+              gs = q * vj * f
+              si(k, 7) = si(k, 7) + gs * dx(l)
+              si(k, 8) = si(k, 8) + gs * dy(l)
+              gs = q * vi * f
+              t7(l) = gs * dx(l)
+              t8(l) = gs * dy(l)
+            end if
+          end do
         end do
-      end do
-      do l = 1, nn
-        j = jl(l)
-        acc(1:6, j) = acc(1:6, j) + [t1(l), t2(l), t3(l), t4(l), t5(l), t6(l)]
-        if (with_g) acc(7:9, j) = acc(7:9, j) + [t7(l), t8(l), t9(l)]
-      end do
-      do c = 1, merge(9, 6, with_g)
-        acc(c, i) = acc(c, i) + lane_total(si(:, c))
-      end do
+      else
+        do b = 0, nb - LANES, LANES
+          do k = 1, LANES
+            l = b + k
+            j = jl(l)
+            f = fl(l)
+            vj = rec(R_VOL, j)
+            xx = moment_term(f, [dx(l), dy(l), dz(l)])
+            t1(l) = xx(1)
+            t2(l) = xx(2)
+            t3(l) = xx(3)
+            t4(l) = xx(4)
+            t5(l) = xx(5)
+            t6(l) = xx(6)
+            si(k, 1) = si(k, 1) + vj * t1(l)
+            si(k, 2) = si(k, 2) + vj * t2(l)
+            si(k, 3) = si(k, 3) + vj * t3(l)
+            si(k, 4) = si(k, 4) + vj * t4(l)
+            si(k, 5) = si(k, 5) + vj * t5(l)
+            si(k, 6) = si(k, 6) + vj * t6(l)
+            t1(l) = vi * t1(l)
+            t2(l) = vi * t2(l)
+            t3(l) = vi * t3(l)
+            t4(l) = vi * t4(l)
+            t5(l) = vi * t5(l)
+            t6(l) = vi * t6(l)
+            if (with_g) then
+              ! (E2) (rho_j - rho_i) g V_j for i, (rho_i - rho_j)(-g) V_i for j
+              q = rec(R_RHO, j) - rhoi
+              gs = q * vj * f
+              si(k, 7) = si(k, 7) + gs * dx(l)
+              si(k, 8) = si(k, 8) + gs * dy(l)
+              si(k, 9) = si(k, 9) + gs * dz(l)
+              gs = q * vi * f
+              t7(l) = gs * dx(l)
+              t8(l) = gs * dy(l)
+              t9(l) = gs * dz(l)
+            end if
+          end do
+        end do
+      end if
+      if (planar) then
+        do l = 1, nn
+          j = jl(l)
+          acc(1, j) = acc(1, j) + t1(l)
+          acc(2, j) = acc(2, j) + t2(l)
+          acc(4, j) = acc(4, j) + t4(l)
+          if (with_g) acc(7:8, j) = acc(7:8, j) + [t7(l), t8(l)]
+        end do
+        do c = 1, merge(8, 4, with_g)
+          if (c == 3 .or. c == 5 .or. c == 6) cycle
+          acc(c, i) = acc(c, i) + lane_total(si(:, c))
+        end do
+      else
+        do l = 1, nn
+          j = jl(l)
+          acc(1:6, j) = acc(1:6, j) + [t1(l), t2(l), t3(l), t4(l), t5(l), t6(l)]
+          if (with_g) acc(7:9, j) = acc(7:9, j) + [t7(l), t8(l), t9(l)]
+        end do
+        do c = 1, merge(9, 6, with_g)
+          acc(c, i) = acc(c, i) + lane_total(si(:, c))
+        end do
+      end if
     end do
   end subroutine moment_rows
 
@@ -330,10 +394,17 @@ contains
     rec(1:3, 1:ntot) = u(:, 1:ntot)
     rec(R_VOL, 1:ntot) = m(1:ntot) / rho(1:ntot)
     acc(:, 1:ntot) = 0
-    call velocity_gradient_rows(prm%kernel, ntot, x, nl, size(rec, 1), rec, nr, w%jl, &
-                                r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), &
-                                r(:, 7), r(:, 8), r(:, 9), r(:, 10), r(:, 11), r(:, 12), &
-                                r(:, 13), r(:, 14), acc)
+    if (prm%dim == 2) then
+      call velocity_gradient_rows(.true., prm%kernel, ntot, x, nl, size(rec, 1), rec, nr, w%jl, &
+                                  r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), &
+                                  r(:, 7), r(:, 8), r(:, 9), r(:, 10), r(:, 11), r(:, 12), &
+                                  r(:, 13), r(:, 14), acc)
+    else
+      call velocity_gradient_rows(.false., prm%kernel, ntot, x, nl, size(rec, 1), rec, nr, &
+                                  w%jl, r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), &
+                                  r(:, 7), r(:, 8), r(:, 9), r(:, 10), r(:, 11), r(:, 12), &
+                                  r(:, 13), r(:, 14), acc)
+    end if
     strain = 0
     do i = 1, n
       l = reshape([lmat(1, i), lmat(4, i), lmat(5, i), lmat(4, i), lmat(2, i), lmat(6, i), &
@@ -351,9 +422,11 @@ contains
   !> The rows of the list for rhs_strain_rate: per pair (u_j - u_i) (x) g V_j
   !> for i and (u_i - u_j) (x) (-g) V_i for j, component a of u in
   !> acc(3a - 2:3a), summed for i in lanes and added to j in row order
-  !> (as pair_rows.inc).
-  subroutine velocity_gradient_rows(kernel, ntot, x, nl, nrec, rec, nr, jl, dx, dy, dz, r2l, &
-                                    fl, t1, t2, t3, t4, t5, t6, t7, t8, t9, acc)
+  !> (as pair_rows.inc).  planar (2D): only the x, y components (1, 2, 4,
+  !> 5), the others staying zero.
+  subroutine velocity_gradient_rows(planar, kernel, ntot, x, nl, nrec, rec, nr, jl, dx, dy, dz, &
+                                    r2l, fl, t1, t2, t3, t4, t5, t6, t7, t8, t9, acc)
+    logical, value :: planar
     type(kernel_t), intent(in) :: kernel
     integer, intent(in) :: ntot, nrec, nr
     real(wp), intent(in) :: x(3, ntot), rec(nrec, ntot)
@@ -368,50 +441,89 @@ contains
     s2 = kernel%support**2
     do kk = 1, nl%n_rows
       i = nl%row(kk)
-      call in_range_soa(kk, i, x, s2, nl, nn, nb, jl, dx, dy, dz, r2l)
+      if (planar) then
+        call in_range_2d(kk, i, x, s2, nl, nn, nb, jl, dx, dy, r2l)
+      else
+        call in_range_soa(kk, i, x, s2, nl, nn, nb, jl, dx, dy, dz, r2l)
+      end if
       call kernel_f_list(kernel, nb, r2l, fl)
       vi = rec(R_VOL, i)
       ui = rec(1:3, i)
       si = 0
-      do b = 0, nb - LANES, LANES
-        do k = 1, LANES
-          l = b + k
-          j = jl(l)
-          f = fl(l)
-          vj = rec(R_VOL, j)
-          qx = rec(1, j) - ui(1)
-          qy = rec(2, j) - ui(2)
-          qz = rec(3, j) - ui(3)
-          gx = f * dx(l)
-          gy = f * dy(l)
-          gz = f * dz(l)
-          si(k, 1) = si(k, 1) + vj * qx * gx
-          si(k, 2) = si(k, 2) + vj * qx * gy
-          si(k, 3) = si(k, 3) + vj * qx * gz
-          si(k, 4) = si(k, 4) + vj * qy * gx
-          si(k, 5) = si(k, 5) + vj * qy * gy
-          si(k, 6) = si(k, 6) + vj * qy * gz
-          si(k, 7) = si(k, 7) + vj * qz * gx
-          si(k, 8) = si(k, 8) + vj * qz * gy
-          si(k, 9) = si(k, 9) + vj * qz * gz
-          t1(l) = vi * qx * gx
-          t2(l) = vi * qx * gy
-          t3(l) = vi * qx * gz
-          t4(l) = vi * qy * gx
-          t5(l) = vi * qy * gy
-          t6(l) = vi * qy * gz
-          t7(l) = vi * qz * gx
-          t8(l) = vi * qz * gy
-          t9(l) = vi * qz * gz
+      ! (one loop per case, without a branch inside: each vectorises)
+      if (planar) then
+        do b = 0, nb - LANES, LANES
+          do k = 1, LANES
+            l = b + k
+            j = jl(l)
+            f = fl(l)
+            vj = rec(R_VOL, j)
+            qx = rec(1, j) - ui(1)
+            qy = rec(2, j) - ui(2)
+            gx = f * dx(l)
+            gy = f * dy(l)
+            si(k, 1) = si(k, 1) + vj * qx * gx
+            si(k, 2) = si(k, 2) + vj * qx * gy
+            si(k, 4) = si(k, 4) + vj * qy * gx
+            si(k, 5) = si(k, 5) + vj * qy * gy
+            t1(l) = vi * qx * gx
+            t2(l) = vi * qx * gy
+            t4(l) = vi * qy * gx
+            t5(l) = vi * qy * gy
+          end do
         end do
-      end do
-      do l = 1, nn
-        j = jl(l)
-        acc(:, j) = acc(:, j) + [t1(l), t2(l), t3(l), t4(l), t5(l), t6(l), t7(l), t8(l), t9(l)]
-      end do
-      do c = 1, 9
-        acc(c, i) = acc(c, i) + lane_total(si(:, c))
-      end do
+      else
+        do b = 0, nb - LANES, LANES
+          do k = 1, LANES
+            l = b + k
+            j = jl(l)
+            f = fl(l)
+            vj = rec(R_VOL, j)
+            qx = rec(1, j) - ui(1)
+            qy = rec(2, j) - ui(2)
+            qz = rec(3, j) - ui(3)
+            gx = f * dx(l)
+            gy = f * dy(l)
+            gz = f * dz(l)
+            si(k, 1) = si(k, 1) + vj * qx * gx
+            si(k, 2) = si(k, 2) + vj * qx * gy
+            si(k, 3) = si(k, 3) + vj * qx * gz
+            si(k, 4) = si(k, 4) + vj * qy * gx
+            si(k, 5) = si(k, 5) + vj * qy * gy
+            si(k, 6) = si(k, 6) + vj * qy * gz
+            si(k, 7) = si(k, 7) + vj * qz * gx
+            si(k, 8) = si(k, 8) + vj * qz * gy
+            si(k, 9) = si(k, 9) + vj * qz * gz
+            t1(l) = vi * qx * gx
+            t2(l) = vi * qx * gy
+            t3(l) = vi * qx * gz
+            t4(l) = vi * qy * gx
+            t5(l) = vi * qy * gy
+            t6(l) = vi * qy * gz
+            t7(l) = vi * qz * gx
+            t8(l) = vi * qz * gy
+            t9(l) = vi * qz * gz
+          end do
+        end do
+      end if
+      if (planar) then
+        do l = 1, nn
+          j = jl(l)
+          acc(1:2, j) = acc(1:2, j) + [t1(l), t2(l)]
+          acc(4:5, j) = acc(4:5, j) + [t4(l), t5(l)]
+        end do
+        do c = 1, 5
+          if (c /= 3) acc(c, i) = acc(c, i) + lane_total(si(:, c))
+        end do
+      else
+        do l = 1, nn
+          j = jl(l)
+          acc(:, j) = acc(:, j) + [t1(l), t2(l), t3(l), t4(l), t5(l), t6(l), t7(l), t8(l), t9(l)]
+        end do
+        do c = 1, 9
+          acc(c, i) = acc(c, i) + lane_total(si(:, c))
+        end do
+      end if
     end do
   end subroutine velocity_gradient_rows
 
@@ -506,8 +618,8 @@ contains
     real(wp) :: s2, h, eta2, coef_visc, coef_mon, diff_coef, inv_wdx
     type(pair_coefs_t) :: c
     logical :: antuono, tensile, corrected, renorm_div, renorm, delta_visc, monaghan_visc, recon
-    logical :: adjoint
-    integer :: nrec_need, i
+    logical :: adjoint, planar
+    integer :: nrec_need, i, vec
     real(wp) :: b
     !> I as the six entries xx, yy, zz, xy, xz, yz of a symmetric matrix
     real(wp), parameter :: IDENTITY6(6) = [1, 1, 1, 0, 0, 0]
@@ -578,17 +690,19 @@ contains
     w%acc(:, 1:ntot) = 0
     c = pair_coefs_t(s2, eta2, coef_visc, coef_mon, diff_coef, inv_wdx, prm%tensile_n)
     ! the common configurations have their own vectorised copies of the loop
+    ! (the planar twins in 2D, where the z components are zero)
+    planar = prm%dim == 2
+    vec = 0
+    if (.not. (renorm .or. antuono .or. tensile .or. recon) .and. delta_visc) vec = LOOP_STANDARD
+    if (renorm_div .and. corrected .and. .not. (antuono .or. tensile .or. recon) &
+        .and. delta_visc) vec = LOOP_RENORMALISED
+    if (renorm_div .and. adjoint .and. antuono .and. recon .and. .not. tensile &
+        .and. delta_visc) vec = LOOP_ADJOINT
+    if (prm%generic_loop) vec = 0
     associate(r => w%rb, nr => size(w%jl), nrec => size(w%rec, 1))
-    if (renorm_div .and. corrected .and. .not. (antuono .or. tensile .or. recon .or. &
-        prm%generic_loop) .and. delta_visc) then
-      call rows_renormalised(prm%kernel, c, ntot, x, grad_rho, nl, nrec, w%rec, nr, w%jl, &
-                 r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), r(:, 9), &
-                 r(:, 10), w%acc)
-    else if (.not. (renorm .or. antuono .or. tensile .or. recon .or. prm%generic_loop) &
-             .and. delta_visc) then
-      call rows_standard(prm%kernel, c, ntot, x, grad_rho, nl, nrec, w%rec, nr, w%jl, &
-                 r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), r(:, 9), &
-                 r(:, 10), w%acc)
+    if (vec /= 0) then
+      call rows_vectorised(vec, planar, prm%kernel, c, ntot, x, grad_rho, nl, nrec, w%rec, nr, &
+                           w%jl, r, w%acc)
     else
       call rows_general(renorm_div, corrected, antuono, tensile, delta_visc, monaghan_visc, &
                         recon, adjoint, prm%kernel, c, ntot, x, grad_rho, nl, nrec, w%rec, nr, &
@@ -610,28 +724,110 @@ contains
                           dx, dy, dz, r2l, fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
     logical, intent(in) :: renorm_div, corrected, antuono, tensile, delta_visc, monaghan_visc, &
                            recon, adjoint
+    logical, parameter :: planar = .false.
     include 'pair_rows.inc'
   end subroutine rows_general
 
   !> The standard operators (E1, E4) with the delta-SPH viscosity and the
   !> Molteni diffusion: the options constant, the loop vectorised.
-  subroutine rows_standard(kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, dx, dy, dz, r2l, &
-                           fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
+  subroutine rows_standard(kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, &
+                           dx, dy, dz, r2l, fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
     logical, parameter :: renorm_div = .false., corrected = .false., antuono = .false., &
                           tensile = .false., delta_visc = .true., monaghan_visc = .false., &
-                          recon = .false., adjoint = .false.
+                          recon = .false., adjoint = .false., planar = .false.
     include 'pair_rows.inc'
   end subroutine rows_standard
 
+  !> rows_standard in 2D (planar): no z components.
+  subroutine rows_standard_2d(kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, &
+                              dx, dy, dz, r2l, fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
+    logical, parameter :: renorm_div = .false., corrected = .false., antuono = .false., &
+                          tensile = .false., delta_visc = .true., monaghan_visc = .false., &
+                          recon = .false., adjoint = .false., planar = .true.
+    include 'pair_rows.inc'
+  end subroutine rows_standard_2d
+
   !> The renormalised divergence and higher-order gradient (H1) with the
   !> delta-SPH viscosity and the Molteni diffusion, vectorised.
-  subroutine rows_renormalised(kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, dx, dy, dz, &
-                               r2l, fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
+  subroutine rows_renormalised(kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, &
+                               dx, dy, dz, r2l, fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
     logical, parameter :: renorm_div = .true., corrected = .true., antuono = .false., &
                           tensile = .false., delta_visc = .true., monaghan_visc = .false., &
-                          recon = .false., adjoint = .false.
+                          recon = .false., adjoint = .false., planar = .false.
     include 'pair_rows.inc'
   end subroutine rows_renormalised
+
+  !> rows_renormalised in 2D (planar): no z components.
+  subroutine rows_renormalised_2d(kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, &
+                                  dx, dy, dz, r2l, fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
+    logical, parameter :: renorm_div = .true., corrected = .true., antuono = .false., &
+                          tensile = .false., delta_visc = .true., monaghan_visc = .false., &
+                          recon = .false., adjoint = .false., planar = .true.
+    include 'pair_rows.inc'
+  end subroutine rows_renormalised_2d
+
+  !> The renormalised divergence with its adjoint gradient (H2), the
+  !> reconstructed delta-SPH viscosity (R1) and Antuono's diffusion: the
+  !> convergence recipe (input/circle2d_convergence.nml), vectorised.
+  subroutine rows_adjoint(kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, &
+                          dx, dy, dz, r2l, fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
+    logical, parameter :: renorm_div = .true., corrected = .false., antuono = .true., &
+                          tensile = .false., delta_visc = .true., monaghan_visc = .false., &
+                          recon = .true., adjoint = .true., planar = .false.
+    include 'pair_rows.inc'
+  end subroutine rows_adjoint
+
+  !> rows_adjoint in 2D (planar): no z components.
+  subroutine rows_adjoint_2d(kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, &
+                             dx, dy, dz, r2l, fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
+    logical, parameter :: renorm_div = .true., corrected = .false., antuono = .true., &
+                          tensile = .false., delta_visc = .true., monaghan_visc = .false., &
+                          recon = .true., adjoint = .true., planar = .true.
+    include 'pair_rows.inc'
+  end subroutine rows_adjoint_2d
+
+  !> Calls the vectorised copy `vec` (LOOP_*) of the pair loop, its planar
+  !> twin in 2D, with the row buffers r (rhs_work_t%rb).
+  subroutine rows_vectorised(vec, planar, kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, r, &
+                             acc)
+    integer, intent(in) :: vec
+    logical, intent(in) :: planar
+    type(kernel_t), intent(in) :: kernel
+    type(pair_coefs_t), intent(in) :: c
+    integer, intent(in) :: ntot, nrec, nr
+    real(wp), intent(in) :: x(3, ntot), grad_rho(3, ntot), rec(nrec, ntot)
+    type(neighbour_list_t), intent(in) :: nl
+    integer, intent(inout) :: jl(nr)
+    real(wp), intent(inout) :: r(nr, N_ROWBUF), acc(4, ntot)
+    select case (vec + merge(10, 0, planar))
+    case (LOOP_STANDARD)
+      call rows_standard(kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, r(:, 1), &
+                         r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), &
+                         r(:, 9), r(:, 10), acc)
+    case (LOOP_STANDARD + 10)
+      call rows_standard_2d(kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, r(:, 1), &
+                            r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), &
+                            r(:, 9), r(:, 10), acc)
+    case (LOOP_RENORMALISED)
+      call rows_renormalised(kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, r(:, 1), &
+                             r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), &
+                             r(:, 9), r(:, 10), acc)
+    case (LOOP_RENORMALISED + 10)
+      call rows_renormalised_2d(kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, r(:, 1), &
+                                r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), &
+                                r(:, 9), r(:, 10), acc)
+    case (LOOP_ADJOINT)
+      call rows_adjoint(kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, r(:, 1), &
+                        r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), &
+                        r(:, 9), r(:, 10), acc)
+    case (LOOP_ADJOINT + 10)
+      call rows_adjoint_2d(kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, r(:, 1), &
+                           r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), &
+                           r(:, 9), r(:, 10), acc)
+    case default
+      error stop 'rows_vectorised: no such copy of the pair loop'
+    end select
+  end subroutine rows_vectorised
 
   !> The total of LANES partial sums, added pairwise in a fixed order.
   pure real(wp) function lane_total(acc) result(total)
@@ -677,6 +873,37 @@ contains
     dz(nn + 1:nb) = 0
     r2l(nn + 1:nb) = s2
   end subroutine in_range_soa
+
+  !> in_range_soa in 2D: the same partners, without the z components
+  !> (zero in a planar run).
+  pure subroutine in_range_2d(kk, i, x, s2, nl, nn, nb, jl, dx, dy, r2l)
+    integer, intent(in) :: kk, i
+    real(wp), intent(in) :: x(:, :), s2
+    type(neighbour_list_t), intent(in) :: nl
+    integer, intent(out) :: nn, nb
+    integer, intent(inout) :: jl(:)
+    real(wp), intent(inout) :: dx(:), dy(:), r2l(:)
+    real(wp) :: xi(2), d(2), r2
+    integer :: j
+    integer(i8) :: k
+    xi = x(1:2, i)
+    nn = 0
+    do k = nl%start(kk), nl%start(kk + 1) - 1
+      j = nl%nbr(k)
+      d = xi - x(1:2, j)
+      r2 = d(1)**2 + d(2)**2
+      jl(nn + 1) = j
+      dx(nn + 1) = d(1)
+      dy(nn + 1) = d(2)
+      r2l(nn + 1) = r2
+      nn = nn + merge(1, 0, r2 < s2)
+    end do
+    nb = ((nn + LANES - 1) / LANES) * LANES
+    jl(nn + 1:nb) = i
+    dx(nn + 1:nb) = 0
+    dy(nn + 1:nb) = 0
+    r2l(nn + 1:nb) = s2
+  end subroutine in_range_2d
 
 
   !> (E8) Particle shifting of the delta-plus-SPH (Sun et al. 2017): the
