@@ -161,8 +161,8 @@ module input_params
           'from the strain rates of i and j: none on a linear velocity field', &
           doc='the viscosity acts on u_ji less its linear part, reconstructed from the ' // &
               'renormalised strain rates of i and j ([doc/theory.md](theory.md) R1): ' // &
-              'zero on any linear velocity field, also at the free surface; one more ' // &
-              'pass over the pairs'), &
+              'zero on any linear velocity field, also at the free surface. Its sums ' // &
+              'join the first pass where L_i is computed, else one more pass'), &
     var_t(G_NUMERICS, 'alpha_exponent', T_REAL, SCALAR, LO_GE, HI_LE, -2.0_wp, 2.0_wp, &
           CH_NONE, '', 'with particles.n_ref > 0: alpha = alpha (n/n_ref)^(alpha_exponent/dim)', &
           doc='with `particles.n_ref > 0`: alpha = `alpha` s^`alpha_exponent` (-1: alpha ' // &

@@ -129,6 +129,7 @@ module fluid_rhs
     real(wp), allocatable :: rb(:, :)     !< (nr, N_ROWBUF) the row buffers of pair_rows.inc
     real(wp), allocatable :: acc(:, :)
     real(wp), allocatable :: mom(:, :)    !< (9, :) M and G of rhs_renormalisation
+    real(wp), allocatable :: vg(:, :)     !< (9, :) (R1) the velocity gradient's sums
   end type rhs_work_t
 
 contains
@@ -162,7 +163,8 @@ contains
   !> are zero: their owners compute them (exchange lambda and G if needed).
   !> With phi, grad_rho is the same gradient of phi instead of rho (e.g. a
   !> velocity component: flow_fields).
-  subroutine rhs_renormalisation(prm, n, ntot, x, rho, m, nl, lambda, lmat, grad_rho, work, phi)
+  subroutine rhs_renormalisation(prm, n, ntot, x, rho, m, nl, lambda, lmat, grad_rho, work, phi, &
+                                 u, strain)
     type(rhs_params_t), intent(in) :: prm
     integer, intent(in) :: n, ntot
     real(wp), intent(in) :: x(3, ntot), rho(ntot), m(ntot)
@@ -171,17 +173,22 @@ contains
     real(wp), intent(out), optional :: lmat(6, ntot), grad_rho(3, ntot)
     real(wp), intent(in), optional :: phi(ntot)
     type(rhs_work_t), intent(inout), optional, target :: work
+    !> (R1) with u, also the strain rate S of rhs_strain_rate, in the same
+    !> pass (L_i applies after the sum)
+    real(wp), intent(in), optional :: u(3, ntot)
+    real(wp), intent(out), optional :: strain(6, ntot)
     type(rhs_work_t), target :: own
     type(rhs_work_t), pointer :: w
     real(wp) :: inv(3, 3), det
     integer :: i
-    logical :: with_g
+    logical :: with_g, with_u
     with_g = present(grad_rho)
+    with_u = present(u) .and. present(strain)
     w => own
     if (present(work)) w => work
-    call rhs_work_reserve(w, ntot, nl, REC_SHORT)
+    call rhs_work_reserve(w, ntot, nl, REC_SHORT, with_u)
     associate(rec => w%rec, r => w%rb, nr => size(w%jl), acc => w%mom)
-    ! rec: V and rho per particle; acc: M (1:6) and the sum of G (7:9)
+    ! rec: V, rho (and u) per particle; acc: M (1:6) and the sum of G (7:9)
     rec(R_VOL, 1:ntot) = m(1:ntot) / rho(1:ntot)
     if (present(phi)) then
       rec(R_RHO, 1:ntot) = phi(1:ntot)
@@ -189,24 +196,14 @@ contains
       rec(R_RHO, 1:ntot) = rho(1:ntot)
     end if
     acc(:, 1:ntot) = 0
-    ! each call with constant options: each is vectorised (planar: 2D)
-    if (with_g .and. prm%dim == 2) then
-      call moment_rows(.true., .true., prm%kernel, ntot, x, nl, size(rec, 1), rec, nr, w%jl, &
-                       r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), &
-                       r(:, 9), r(:, 10), r(:, 11), r(:, 12), r(:, 13), r(:, 14), acc)
-    else if (with_g) then
-      call moment_rows(.true., .false., prm%kernel, ntot, x, nl, size(rec, 1), rec, nr, w%jl, &
-                       r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), &
-                       r(:, 9), r(:, 10), r(:, 11), r(:, 12), r(:, 13), r(:, 14), acc)
-    else if (prm%dim == 2) then
-      call moment_rows(.false., .true., prm%kernel, ntot, x, nl, size(rec, 1), rec, nr, w%jl, &
-                       r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), &
-                       r(:, 9), r(:, 10), r(:, 11), r(:, 12), r(:, 13), r(:, 14), acc)
-    else
-      call moment_rows(.false., .false., prm%kernel, ntot, x, nl, size(rec, 1), rec, nr, w%jl, &
-                       r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), r(:, 8), &
-                       r(:, 9), r(:, 10), r(:, 11), r(:, 12), r(:, 13), r(:, 14), acc)
+    if (with_u) then
+      rec(1:3, 1:ntot) = u(:, 1:ntot)
+      w%vg(:, 1:ntot) = 0
     end if
+    call moment_rows(.true., with_g, with_u, prm%dim == 2, prm%kernel, ntot, x, nl, size(rec, 1), &
+                     rec, nr, w%jl, r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), &
+                     r(:, 7), r(:, 8), r(:, 9), r(:, 10), r(:, 11), r(:, 12), r(:, 13), r(:, 14), &
+                     acc, w%vg)
     lambda = 0
     if (present(lmat)) lmat = 0
     if (with_g) grad_rho = 0
@@ -220,19 +217,51 @@ contains
                                        inv(2, 3)]
       if (with_g) grad_rho(:, i) = matmul(inv, acc(7:9, i))
     end do
+    if (with_u) then
+      strain = 0
+      do i = 1, n
+        if (lambda(i) < LAMBDA_MIN) then
+          ! L = I, as lmat holds it
+          strain(:, i) = strain_of(merge(1.0_wp, 0.0_wp, [1, 2, 3, 0, 0, 0] >= 1 .and. &
+                                         [1, 2, 3, 0, 0, 0] <= prm%dim), w%vg(:, i))
+        else
+          call invert_sym(prm%dim, acc(1:6, i), inv, det)
+          strain(:, i) = strain_of([inv(1, 1), inv(2, 2), inv(3, 3), inv(1, 2), inv(1, 3), &
+                                    inv(2, 3)], w%vg(:, i))
+        end if
+      end do
+    end if
     end associate
   end subroutine rhs_renormalisation
 
-  !> The rows of the list for rhs_renormalisation: per pair the term of M
-  !> (moment_term, the same for i and j) and, with_g, of the density
-  !> gradient ((rho_j - rho_i) g V_j for i, (rho_i - rho_j)(-g) V_i for j),
-  !> summed for i in lanes (as pair_rows.inc) and added to j in row order.
-  !> Called with with_g a constant, each call is vectorised.  planar (2D):
-  !> only the xx, yy, xy moments and the x, y gradient, the others staying
-  !> zero (z = 0).
-  subroutine moment_rows(with_g, planar, kernel, ntot, x, nl, nrec, rec, nr, jl, dx, dy, dz, &
-                         r2l, fl, t1, t2, t3, t4, t5, t6, t7, t8, t9, acc)
-    logical, value :: with_g, planar
+  !> (R1) S = (G + G^T)/2 of the renormalised velocity gradient G, row a of
+  !> which is L (symmetric, as xx, yy, zz, xy, xz, yz) times the sum
+  !> raw(3a - 2:3a) of component a (moment_rows), as (xx, yy, zz, xy, xz, yz).
+  pure function strain_of(lm, raw) result(st)
+    real(wp), intent(in) :: lm(6), raw(9)
+    real(wp) :: st(6), l(3, 3), g(3, 3)
+    integer :: a
+    l = reshape([lm(1), lm(4), lm(5), lm(4), lm(2), lm(6), lm(5), lm(6), lm(3)], [3, 3])
+    do a = 1, 3
+      g(a, :) = matmul(l, raw(3 * a - 2:3 * a))
+    end do
+    st = [g(1, 1), g(2, 2), g(3, 3), 0.5_wp * (g(1, 2) + g(2, 1)), &
+          0.5_wp * (g(1, 3) + g(3, 1)), 0.5_wp * (g(2, 3) + g(3, 2))]
+  end function strain_of
+
+  !> The rows of the list for rhs_renormalisation and rhs_strain_rate: per
+  !> pair, with_m, the term of M (moment_term, the same for i and j), with_g
+  !> (which needs with_m) the density gradient's
+  !> ((rho_j - rho_i) g V_j for i, (rho_i - rho_j)(-g) V_i for j) and with_u
+  !> the velocity gradient's ((u_j - u_i) (x) g V_j for i, (u_i - u_j) (x)
+  !> (-g) V_i for j, component a of u in accu(3a - 2:3a)), each summed for i
+  !> in lanes (as pair_rows.inc) and added to j in row order.  Each quantity
+  !> has its own loop over the row, the options outside them, so that every
+  !> loop vectorises; planar (2D): only the x, y components, the others
+  !> staying zero.
+  subroutine moment_rows(with_m, with_g, with_u, planar, kernel, ntot, x, nl, nrec, rec, nr, jl, &
+                         dx, dy, dz, r2l, fl, t1, t2, t3, t4, t5, t6, t7, t8, t9, acc, accu)
+    logical, intent(in) :: with_m, with_g, with_u, planar
     type(kernel_t), intent(in) :: kernel
     integer, intent(in) :: ntot, nrec, nr
     real(wp), intent(in) :: x(3, ntot), rec(nrec, ntot)
@@ -240,9 +269,9 @@ contains
     integer, intent(inout) :: jl(nr)
     real(wp), intent(inout), dimension(nr) :: dx, dy, dz, r2l, fl, t1, t2, t3, t4, t5, t6, t7, &
                                               t8, t9
-    real(wp), intent(inout) :: acc(9, ntot)
-    real(wp), dimension(LANES, 9) :: si
-    real(wp) :: s2, vi, vj, rhoi, f, q, gs, xx(6)
+    real(wp), intent(inout) :: acc(9, ntot), accu(:, :)
+    real(wp), dimension(LANES, 9) :: si, su
+    real(wp) :: s2, vi, vj, rhoi, f, q, gs, xx(6), ui(3), qx, qy, qz, gx, gy, gz
     integer :: kk, i, j, l, nn, nb, b, k, c
     s2 = kernel%support**2
     do kk = 1, nl%n_rows
@@ -255,10 +284,11 @@ contains
       call kernel_f_list(kernel, nb, r2l, fl)
       vi = rec(R_VOL, i)
       rhoi = rec(R_RHO, i)
+      ui = rec(1:3, i)
       si = 0
-      ! the loops over a vector of partners without a branch on planar, so
-      ! that each vectorises (with_g is constant in each call)
-      if (planar) then
+      ! (E3) M: for i vj xx, for j vi xx; with_g (E2) G, in the same loop
+      ! (one loop per combination, without branches: each vectorises)
+      if (with_m .and. with_g .and. planar) then
         do b = 0, nb - LANES, LANES
           do k = 1, LANES
             l = b + k
@@ -267,25 +297,143 @@ contains
             vj = rec(R_VOL, j)
             ! z = 0: the z moments are neither summed nor kept
             xx = moment_term(f, [dx(l), dy(l), 0.0_wp])
-            t1(l) = xx(1)
-            t2(l) = xx(2)
-            t4(l) = xx(4)
-            si(k, 1) = si(k, 1) + vj * t1(l)
-            si(k, 2) = si(k, 2) + vj * t2(l)
-            si(k, 4) = si(k, 4) + vj * t4(l)
-            t1(l) = vi * t1(l)
-            t2(l) = vi * t2(l)
-            t4(l) = vi * t4(l)
-            if (with_g) then
-              q = rec(R_RHO, j) - rhoi
-              gs = q * vj * f
-              si(k, 7) = si(k, 7) + gs * dx(l)
-              si(k, 8) = si(k, 8) + gs * dy(l)
-              gs = q * vi * f
-              t7(l) = gs * dx(l)
-              t8(l) = gs * dy(l)
-            end if
+            si(k, 1) = si(k, 1) + vj * xx(1)
+            si(k, 2) = si(k, 2) + vj * xx(2)
+            si(k, 4) = si(k, 4) + vj * xx(4)
+            t1(l) = vi * xx(1)
+            t2(l) = vi * xx(2)
+            t4(l) = vi * xx(4)
+            ! (E2) (rho_j - rho_i) g V_j for i, (rho_i - rho_j)(-g) V_i for j
+            q = rec(R_RHO, j) - rhoi
+            gs = q * vj * f
+            si(k, 7) = si(k, 7) + gs * dx(l)
+            si(k, 8) = si(k, 8) + gs * dy(l)
+            gs = q * vi * f
+            t7(l) = gs * dx(l)
+            t8(l) = gs * dy(l)
           end do
+        end do
+      else if (with_m .and. with_g) then
+        do b = 0, nb - LANES, LANES
+          do k = 1, LANES
+            l = b + k
+            j = jl(l)
+            f = fl(l)
+            vj = rec(R_VOL, j)
+            xx = moment_term(f, [dx(l), dy(l), dz(l)])
+            si(k, 1) = si(k, 1) + vj * xx(1)
+            si(k, 2) = si(k, 2) + vj * xx(2)
+            si(k, 3) = si(k, 3) + vj * xx(3)
+            si(k, 4) = si(k, 4) + vj * xx(4)
+            si(k, 5) = si(k, 5) + vj * xx(5)
+            si(k, 6) = si(k, 6) + vj * xx(6)
+            t1(l) = vi * xx(1)
+            t2(l) = vi * xx(2)
+            t3(l) = vi * xx(3)
+            t4(l) = vi * xx(4)
+            t5(l) = vi * xx(5)
+            t6(l) = vi * xx(6)
+            ! (E2) (rho_j - rho_i) g V_j for i, (rho_i - rho_j)(-g) V_i for j
+            q = rec(R_RHO, j) - rhoi
+            gs = q * vj * f
+            si(k, 7) = si(k, 7) + gs * dx(l)
+            si(k, 8) = si(k, 8) + gs * dy(l)
+            si(k, 9) = si(k, 9) + gs * dz(l)
+            gs = q * vi * f
+            t7(l) = gs * dx(l)
+            t8(l) = gs * dy(l)
+            t9(l) = gs * dz(l)
+          end do
+        end do
+      else if (with_m .and. planar) then
+        do b = 0, nb - LANES, LANES
+          do k = 1, LANES
+            l = b + k
+            j = jl(l)
+            f = fl(l)
+            vj = rec(R_VOL, j)
+            ! z = 0: the z moments are neither summed nor kept
+            xx = moment_term(f, [dx(l), dy(l), 0.0_wp])
+            si(k, 1) = si(k, 1) + vj * xx(1)
+            si(k, 2) = si(k, 2) + vj * xx(2)
+            si(k, 4) = si(k, 4) + vj * xx(4)
+            t1(l) = vi * xx(1)
+            t2(l) = vi * xx(2)
+            t4(l) = vi * xx(4)
+          end do
+        end do
+      else if (with_m) then
+        do b = 0, nb - LANES, LANES
+          do k = 1, LANES
+            l = b + k
+            j = jl(l)
+            f = fl(l)
+            vj = rec(R_VOL, j)
+            xx = moment_term(f, [dx(l), dy(l), dz(l)])
+            si(k, 1) = si(k, 1) + vj * xx(1)
+            si(k, 2) = si(k, 2) + vj * xx(2)
+            si(k, 3) = si(k, 3) + vj * xx(3)
+            si(k, 4) = si(k, 4) + vj * xx(4)
+            si(k, 5) = si(k, 5) + vj * xx(5)
+            si(k, 6) = si(k, 6) + vj * xx(6)
+            t1(l) = vi * xx(1)
+            t2(l) = vi * xx(2)
+            t3(l) = vi * xx(3)
+            t4(l) = vi * xx(4)
+            t5(l) = vi * xx(5)
+            t6(l) = vi * xx(6)
+          end do
+        end do
+      end if
+      if (with_m .and. planar) then
+        do l = 1, nn
+          j = jl(l)
+          acc(1, j) = acc(1, j) + t1(l)
+          acc(2, j) = acc(2, j) + t2(l)
+          acc(4, j) = acc(4, j) + t4(l)
+          if (with_g) acc(7:8, j) = acc(7:8, j) + [t7(l), t8(l)]
+        end do
+      else if (with_m) then
+        do l = 1, nn
+          j = jl(l)
+          acc(1:6, j) = acc(1:6, j) + [t1(l), t2(l), t3(l), t4(l), t5(l), t6(l)]
+          if (with_g) acc(7:9, j) = acc(7:9, j) + [t7(l), t8(l), t9(l)]
+        end do
+      end if
+      do c = 1, 9
+        if (planar .and. (c == 3 .or. c == 5 .or. c == 6 .or. c == 9)) cycle
+        if ((c <= 6 .and. with_m) .or. (c > 6 .and. with_g)) &
+          acc(c, i) = acc(c, i) + lane_total(si(:, c))
+      end do
+      if (.not. with_u) cycle
+      ! (R1) the velocity gradient: (u_j - u_i) (x) g V_j for i, the same
+      ! with V_i for j (u_ij (x) (-g) = u_ji (x) g)
+      su = 0
+      if (planar) then
+        do b = 0, nb - LANES, LANES
+          do k = 1, LANES
+            l = b + k
+            j = jl(l)
+            f = fl(l)
+            vj = rec(R_VOL, j)
+            qx = rec(1, j) - ui(1)
+            qy = rec(2, j) - ui(2)
+            gx = f * dx(l)
+            gy = f * dy(l)
+            su(k, 1) = su(k, 1) + vj * qx * gx
+            su(k, 2) = su(k, 2) + vj * qx * gy
+            su(k, 4) = su(k, 4) + vj * qy * gx
+            su(k, 5) = su(k, 5) + vj * qy * gy
+            t1(l) = vi * qx * gx
+            t2(l) = vi * qx * gy
+            t4(l) = vi * qy * gx
+            t5(l) = vi * qy * gy
+          end do
+        end do
+        do l = 1, nn
+          j = jl(l)
+          accu(1:2, j) = accu(1:2, j) + [t1(l), t2(l)]
+          accu(4:5, j) = accu(4:5, j) + [t4(l), t5(l)]
         end do
       else
         do b = 0, nb - LANES, LANES
@@ -294,62 +442,41 @@ contains
             j = jl(l)
             f = fl(l)
             vj = rec(R_VOL, j)
-            xx = moment_term(f, [dx(l), dy(l), dz(l)])
-            t1(l) = xx(1)
-            t2(l) = xx(2)
-            t3(l) = xx(3)
-            t4(l) = xx(4)
-            t5(l) = xx(5)
-            t6(l) = xx(6)
-            si(k, 1) = si(k, 1) + vj * t1(l)
-            si(k, 2) = si(k, 2) + vj * t2(l)
-            si(k, 3) = si(k, 3) + vj * t3(l)
-            si(k, 4) = si(k, 4) + vj * t4(l)
-            si(k, 5) = si(k, 5) + vj * t5(l)
-            si(k, 6) = si(k, 6) + vj * t6(l)
-            t1(l) = vi * t1(l)
-            t2(l) = vi * t2(l)
-            t3(l) = vi * t3(l)
-            t4(l) = vi * t4(l)
-            t5(l) = vi * t5(l)
-            t6(l) = vi * t6(l)
-            if (with_g) then
-              ! (E2) (rho_j - rho_i) g V_j for i, (rho_i - rho_j)(-g) V_i for j
-              q = rec(R_RHO, j) - rhoi
-              gs = q * vj * f
-              si(k, 7) = si(k, 7) + gs * dx(l)
-              si(k, 8) = si(k, 8) + gs * dy(l)
-              si(k, 9) = si(k, 9) + gs * dz(l)
-              gs = q * vi * f
-              t7(l) = gs * dx(l)
-              t8(l) = gs * dy(l)
-              t9(l) = gs * dz(l)
-            end if
+            qx = rec(1, j) - ui(1)
+            qy = rec(2, j) - ui(2)
+            qz = rec(3, j) - ui(3)
+            gx = f * dx(l)
+            gy = f * dy(l)
+            gz = f * dz(l)
+            su(k, 1) = su(k, 1) + vj * qx * gx
+            su(k, 2) = su(k, 2) + vj * qx * gy
+            su(k, 3) = su(k, 3) + vj * qx * gz
+            su(k, 4) = su(k, 4) + vj * qy * gx
+            su(k, 5) = su(k, 5) + vj * qy * gy
+            su(k, 6) = su(k, 6) + vj * qy * gz
+            su(k, 7) = su(k, 7) + vj * qz * gx
+            su(k, 8) = su(k, 8) + vj * qz * gy
+            su(k, 9) = su(k, 9) + vj * qz * gz
+            t1(l) = vi * qx * gx
+            t2(l) = vi * qx * gy
+            t3(l) = vi * qx * gz
+            t4(l) = vi * qy * gx
+            t5(l) = vi * qy * gy
+            t6(l) = vi * qy * gz
+            t7(l) = vi * qz * gx
+            t8(l) = vi * qz * gy
+            t9(l) = vi * qz * gz
           end do
         end do
-      end if
-      if (planar) then
         do l = 1, nn
           j = jl(l)
-          acc(1, j) = acc(1, j) + t1(l)
-          acc(2, j) = acc(2, j) + t2(l)
-          acc(4, j) = acc(4, j) + t4(l)
-          if (with_g) acc(7:8, j) = acc(7:8, j) + [t7(l), t8(l)]
-        end do
-        do c = 1, merge(8, 4, with_g)
-          if (c == 3 .or. c == 5 .or. c == 6) cycle
-          acc(c, i) = acc(c, i) + lane_total(si(:, c))
-        end do
-      else
-        do l = 1, nn
-          j = jl(l)
-          acc(1:6, j) = acc(1:6, j) + [t1(l), t2(l), t3(l), t4(l), t5(l), t6(l)]
-          if (with_g) acc(7:9, j) = acc(7:9, j) + [t7(l), t8(l), t9(l)]
-        end do
-        do c = 1, merge(9, 6, with_g)
-          acc(c, i) = acc(c, i) + lane_total(si(:, c))
+          accu(:, j) = accu(:, j) + [t1(l), t2(l), t3(l), t4(l), t5(l), t6(l), t7(l), t8(l), t9(l)]
         end do
       end if
+      do c = 1, 9
+        if (planar .and. .not. (c == 1 .or. c == 2 .or. c == 4 .or. c == 5)) cycle
+        accu(c, i) = accu(c, i) + lane_total(su(:, c))
+      end do
     end do
   end subroutine moment_rows
 
@@ -385,156 +512,34 @@ contains
     type(rhs_work_t), intent(inout), optional, target :: work
     type(rhs_work_t), target :: own
     type(rhs_work_t), pointer :: w
-    real(wp) :: l(3, 3), g(3, 3)
-    integer :: i, a
+    integer :: i
     w => own
     if (present(work)) w => work
-    call rhs_work_reserve(w, ntot, nl, REC_SHORT)
-    associate(rec => w%rec, r => w%rb, nr => size(w%jl), acc => w%mom)
+    call rhs_work_reserve(w, ntot, nl, REC_SHORT, .true.)
+    associate(rec => w%rec, r => w%rb, nr => size(w%jl))
     rec(1:3, 1:ntot) = u(:, 1:ntot)
     rec(R_VOL, 1:ntot) = m(1:ntot) / rho(1:ntot)
-    acc(:, 1:ntot) = 0
-    if (prm%dim == 2) then
-      call velocity_gradient_rows(.true., prm%kernel, ntot, x, nl, size(rec, 1), rec, nr, w%jl, &
-                                  r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), &
-                                  r(:, 7), r(:, 8), r(:, 9), r(:, 10), r(:, 11), r(:, 12), &
-                                  r(:, 13), r(:, 14), acc)
-    else
-      call velocity_gradient_rows(.false., prm%kernel, ntot, x, nl, size(rec, 1), rec, nr, &
-                                  w%jl, r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), &
-                                  r(:, 7), r(:, 8), r(:, 9), r(:, 10), r(:, 11), r(:, 12), &
-                                  r(:, 13), r(:, 14), acc)
-    end if
+    w%vg(:, 1:ntot) = 0
+    call moment_rows(.false., .false., .true., prm%dim == 2, prm%kernel, ntot, x, nl, &
+                     size(rec, 1), rec, nr, w%jl, r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), &
+                     r(:, 6), r(:, 7), r(:, 8), r(:, 9), r(:, 10), r(:, 11), r(:, 12), r(:, 13), &
+                     r(:, 14), w%mom, w%vg)
     strain = 0
     do i = 1, n
-      l = reshape([lmat(1, i), lmat(4, i), lmat(5, i), lmat(4, i), lmat(2, i), lmat(6, i), &
-                   lmat(5, i), lmat(6, i), lmat(3, i)], [3, 3])
-      ! row a of G: L_i times the sum of component a (L symmetric)
-      do a = 1, 3
-        g(a, :) = matmul(l, acc(3 * a - 2:3 * a, i))
-      end do
-      strain(:, i) = [g(1, 1), g(2, 2), g(3, 3), 0.5_wp * (g(1, 2) + g(2, 1)), &
-                      0.5_wp * (g(1, 3) + g(3, 1)), 0.5_wp * (g(2, 3) + g(3, 2))]
+      strain(:, i) = strain_of(lmat(:, i), w%vg(:, i))
     end do
     end associate
   end subroutine rhs_strain_rate
 
-  !> The rows of the list for rhs_strain_rate: per pair (u_j - u_i) (x) g V_j
-  !> for i and (u_i - u_j) (x) (-g) V_i for j, component a of u in
-  !> acc(3a - 2:3a), summed for i in lanes and added to j in row order
-  !> (as pair_rows.inc).  planar (2D): only the x, y components (1, 2, 4,
-  !> 5), the others staying zero.
-  subroutine velocity_gradient_rows(planar, kernel, ntot, x, nl, nrec, rec, nr, jl, dx, dy, dz, &
-                                    r2l, fl, t1, t2, t3, t4, t5, t6, t7, t8, t9, acc)
-    logical, value :: planar
-    type(kernel_t), intent(in) :: kernel
-    integer, intent(in) :: ntot, nrec, nr
-    real(wp), intent(in) :: x(3, ntot), rec(nrec, ntot)
-    type(neighbour_list_t), intent(in) :: nl
-    integer, intent(inout) :: jl(nr)
-    real(wp), intent(inout), dimension(nr) :: dx, dy, dz, r2l, fl, t1, t2, t3, t4, t5, t6, t7, &
-                                              t8, t9
-    real(wp), intent(inout) :: acc(9, ntot)
-    real(wp), dimension(LANES, 9) :: si
-    real(wp) :: s2, vi, vj, ui(3), f, qx, qy, qz, gx, gy, gz
-    integer :: kk, i, j, l, nn, nb, b, k, c
-    s2 = kernel%support**2
-    do kk = 1, nl%n_rows
-      i = nl%row(kk)
-      if (planar) then
-        call in_range_2d(kk, i, x, s2, nl, nn, nb, jl, dx, dy, r2l)
-      else
-        call in_range_soa(kk, i, x, s2, nl, nn, nb, jl, dx, dy, dz, r2l)
-      end if
-      call kernel_f_list(kernel, nb, r2l, fl)
-      vi = rec(R_VOL, i)
-      ui = rec(1:3, i)
-      si = 0
-      ! (one loop per case, without a branch inside: each vectorises)
-      if (planar) then
-        do b = 0, nb - LANES, LANES
-          do k = 1, LANES
-            l = b + k
-            j = jl(l)
-            f = fl(l)
-            vj = rec(R_VOL, j)
-            qx = rec(1, j) - ui(1)
-            qy = rec(2, j) - ui(2)
-            gx = f * dx(l)
-            gy = f * dy(l)
-            si(k, 1) = si(k, 1) + vj * qx * gx
-            si(k, 2) = si(k, 2) + vj * qx * gy
-            si(k, 4) = si(k, 4) + vj * qy * gx
-            si(k, 5) = si(k, 5) + vj * qy * gy
-            t1(l) = vi * qx * gx
-            t2(l) = vi * qx * gy
-            t4(l) = vi * qy * gx
-            t5(l) = vi * qy * gy
-          end do
-        end do
-      else
-        do b = 0, nb - LANES, LANES
-          do k = 1, LANES
-            l = b + k
-            j = jl(l)
-            f = fl(l)
-            vj = rec(R_VOL, j)
-            qx = rec(1, j) - ui(1)
-            qy = rec(2, j) - ui(2)
-            qz = rec(3, j) - ui(3)
-            gx = f * dx(l)
-            gy = f * dy(l)
-            gz = f * dz(l)
-            si(k, 1) = si(k, 1) + vj * qx * gx
-            si(k, 2) = si(k, 2) + vj * qx * gy
-            si(k, 3) = si(k, 3) + vj * qx * gz
-            si(k, 4) = si(k, 4) + vj * qy * gx
-            si(k, 5) = si(k, 5) + vj * qy * gy
-            si(k, 6) = si(k, 6) + vj * qy * gz
-            si(k, 7) = si(k, 7) + vj * qz * gx
-            si(k, 8) = si(k, 8) + vj * qz * gy
-            si(k, 9) = si(k, 9) + vj * qz * gz
-            t1(l) = vi * qx * gx
-            t2(l) = vi * qx * gy
-            t3(l) = vi * qx * gz
-            t4(l) = vi * qy * gx
-            t5(l) = vi * qy * gy
-            t6(l) = vi * qy * gz
-            t7(l) = vi * qz * gx
-            t8(l) = vi * qz * gy
-            t9(l) = vi * qz * gz
-          end do
-        end do
-      end if
-      if (planar) then
-        do l = 1, nn
-          j = jl(l)
-          acc(1:2, j) = acc(1:2, j) + [t1(l), t2(l)]
-          acc(4:5, j) = acc(4:5, j) + [t4(l), t5(l)]
-        end do
-        do c = 1, 5
-          if (c /= 3) acc(c, i) = acc(c, i) + lane_total(si(:, c))
-        end do
-      else
-        do l = 1, nn
-          j = jl(l)
-          acc(:, j) = acc(:, j) + [t1(l), t2(l), t3(l), t4(l), t5(l), t6(l), t7(l), t8(l), t9(l)]
-        end do
-        do c = 1, 9
-          acc(c, i) = acc(c, i) + lane_total(si(:, c))
-        end do
-      end if
-    end do
-  end subroutine velocity_gradient_rows
-
   !> Sizes w for ntot particles, records of nrec values and the rows of nl (a row's buffers hold
   !> its longest row plus a vector of padding, lane_sums), keeping what
   !> is large enough.
-  subroutine rhs_work_reserve(w, ntot, nl, nrec)
+  subroutine rhs_work_reserve(w, ntot, nl, nrec, with_vg)
     type(rhs_work_t), intent(inout) :: w
     integer, intent(in) :: ntot
     type(neighbour_list_t), intent(in) :: nl
     integer, intent(in) :: nrec      !< rows of the particle record: REC_SHORT or REC_LONG
+    logical, intent(in), optional :: with_vg   !< (R1) the velocity gradient's sums too
     integer :: np, nr
     np = max(ntot, 1)
     if (allocated(w%rec)) then
@@ -544,6 +549,15 @@ contains
       np = np + np / 8      ! room for the particle count to grow between rebuilds
       allocate(w%rec(nrec, np), w%acc(4, np), w%mom(9, np))
     end if
+    ! vg has one unused column when not asked for (moment_rows takes it)
+    np = 1
+    if (present(with_vg)) then
+      if (with_vg) np = size(w%rec, 2)
+    end if
+    if (allocated(w%vg)) then
+      if (size(w%vg, 2) < np) deallocate(w%vg)
+    end if
+    if (.not. allocated(w%vg)) allocate(w%vg(9, np))
     nr = row_capacity(nl)
     if (allocated(w%jl)) then
       if (size(w%jl) < nr) deallocate(w%jl, w%rb)

@@ -243,9 +243,18 @@ contains
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
                           s%lm%nl, s%drho, s%du, s%lambda(1, :), s%lmat, s%rw, s%strain)
       else if (first_pass) then
-        if (antuono) then
+        ! (R1) the strain rate's sums in the same pass
+        if (antuono .and. recon) then
+          call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%lm%nl, &
+                                   s%lambda(1, :), lmat=s%lmat, grad_rho=s%grad_rho, work=s%rw, &
+                                   u=pt%u, strain=s%strain)
+        else if (antuono) then
           call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%lm%nl, &
                                    s%lambda(1, :), lmat=s%lmat, grad_rho=s%grad_rho, work=s%rw)
+        else if (recon) then
+          call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%lm%nl, &
+                                   s%lambda(1, :), lmat=s%lmat, work=s%rw, u=pt%u, &
+                                   strain=s%strain)
         else
           call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%lm%nl, &
                                    s%lambda(1, :), lmat=s%lmat, work=s%rw)
@@ -255,7 +264,7 @@ contains
         ! B_j from L_j and lambda_j
         if (corrected .or. adjoint) call decomp_refresh_field(s%dc, env, pt%n, s%lambda)
         if (adjoint) call decomp_refresh_field(s%dc, env, pt%n, s%lmat)
-        if (recon) call strain_rate(s, env)
+        if (recon) call decomp_refresh_field(s%dc, env, pt%n, s%strain)
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
                           s%lm%nl, s%drho, s%du, s%lambda(1, :), s%lmat, s%rw, s%strain)
       else
