@@ -55,7 +55,7 @@ SQUARE_STUDIES = {"square_rotation": [10000, 40000, 90000],
 # The convergent recipe (input/circle2d_convergence.nml, doc/convergence.md):
 # particles.n alone changes; its levels are those of its n_ref
 CONV_N = [1257, 5027, 20107, 80425]
-# its fifth level (--fifth, make validate-long): n_ref 16^2, some 15 hours
+# its fifth level (--fifth, make validate-long): n_ref 16^2, some 9 hours
 # on two cores
 CONV_FIFTH = 321792
 QUICK = {"circle2d": [1250, 2500], "circle2d_convergence": [314, 1257], "ellipsoid3d": [2000],
@@ -761,7 +761,7 @@ def command(argv, prog="postproc/validate"):
     ap.add_argument("--skip-3d", action="store_true", help="leave out ellipsoid3d")
     ap.add_argument("--fifth", action="store_true",
                     help="add the convergent recipe's fifth level, 321,792 particles "
-                         "(about 15 hours on two cores)")
+                         "(about 9 hours on two cores)")
     ap.add_argument("--reuse", action="store_true",
                     help="reuse finished runs found in --runs; run only the missing ones")
     args = ap.parse_args(argv)
