@@ -159,8 +159,8 @@ contains
   !> M_i is nearly singular (isolated particles, thin filaments: lambda_i
   !> below LAMBDA_MIN, against 1 in the bulk and about 0.5 on a flat free
   !> surface) L_i = I is used instead.  lmat holds the symmetric L_i as
-  !> (xx, yy, zz, xy, xz, yz).  Halo slots of lambda, lmat and grad_rho
-  !> are zero: their owners compute them (exchange lambda and G if needed).
+  !> (xx, yy, zz, xy, xz, yz).  Halo slots of lambda, lmat, grad_rho and
+  !> strain are zero: their owners compute them (exchange them if needed).
   !> With phi, grad_rho is the same gradient of phi instead of rho (e.g. a
   !> velocity component: flow_fields).
   subroutine rhs_renormalisation(prm, n, ntot, x, rho, m, nl, lambda, lmat, grad_rho, work, phi, &
@@ -173,17 +173,19 @@ contains
     real(wp), intent(out), optional :: lmat(6, ntot), grad_rho(3, ntot)
     real(wp), intent(in), optional :: phi(ntot)
     type(rhs_work_t), intent(inout), optional, target :: work
-    !> (R1) with u, also the strain rate S of rhs_strain_rate, in the same
-    !> pass (L_i applies after the sum)
+    !> (R1) with u and strain (both or neither), also the strain rate S of
+    !> rhs_strain_rate, in the same pass (L_i applies after the sum)
     real(wp), intent(in), optional :: u(3, ntot)
     real(wp), intent(out), optional :: strain(6, ntot)
     type(rhs_work_t), target :: own
     type(rhs_work_t), pointer :: w
-    real(wp) :: inv(3, 3), det
+    real(wp) :: inv(3, 3), det, l6(6)
     integer :: i
     logical :: with_g, with_u
     with_g = present(grad_rho)
     with_u = present(u) .and. present(strain)
+    if (present(u) .neqv. present(strain)) &
+      error stop 'rhs_renormalisation: the strain rate needs both u and strain'
     w => own
     if (present(work)) w => work
     call rhs_work_reserve(w, ntot, nl, REC_SHORT, with_u)
@@ -207,30 +209,21 @@ contains
     lambda = 0
     if (present(lmat)) lmat = 0
     if (with_g) grad_rho = 0
+    if (with_u) strain = 0
     do i = 1, n
       lambda(i) = sym_min_eigenvalue(prm%dim, acc(1:6, i))
-      if (present(lmat)) lmat(1:prm%dim, i) = 1      ! L = I unless M_i is well conditioned
       if (with_g) grad_rho(:, i) = acc(7:9, i)
-      if (lambda(i) < LAMBDA_MIN) cycle
-      call invert_sym(prm%dim, acc(1:6, i), inv, det)
-      if (present(lmat)) lmat(:, i) = [inv(1, 1), inv(2, 2), inv(3, 3), inv(1, 2), inv(1, 3), &
-                                       inv(2, 3)]
-      if (with_g) grad_rho(:, i) = matmul(inv, acc(7:9, i))
+      ! L_i (as l6): I unless M_i is well conditioned
+      l6 = 0
+      l6(1:prm%dim) = 1
+      if (lambda(i) >= LAMBDA_MIN) then
+        call invert_sym(prm%dim, acc(1:6, i), inv, det)
+        l6 = [inv(1, 1), inv(2, 2), inv(3, 3), inv(1, 2), inv(1, 3), inv(2, 3)]
+        if (with_g) grad_rho(:, i) = matmul(inv, acc(7:9, i))
+      end if
+      if (present(lmat)) lmat(:, i) = l6
+      if (with_u) strain(:, i) = strain_of(l6, w%vg(:, i))
     end do
-    if (with_u) then
-      strain = 0
-      do i = 1, n
-        if (lambda(i) < LAMBDA_MIN) then
-          ! L = I, as lmat holds it
-          strain(:, i) = strain_of(merge(1.0_wp, 0.0_wp, [1, 2, 3, 0, 0, 0] >= 1 .and. &
-                                         [1, 2, 3, 0, 0, 0] <= prm%dim), w%vg(:, i))
-        else
-          call invert_sym(prm%dim, acc(1:6, i), inv, det)
-          strain(:, i) = strain_of([inv(1, 1), inv(2, 2), inv(3, 3), inv(1, 2), inv(1, 3), &
-                                    inv(2, 3)], w%vg(:, i))
-        end if
-      end do
-    end if
     end associate
   end subroutine rhs_renormalisation
 
@@ -255,10 +248,10 @@ contains
   !> ((rho_j - rho_i) g V_j for i, (rho_i - rho_j)(-g) V_i for j) and with_u
   !> the velocity gradient's ((u_j - u_i) (x) g V_j for i, (u_i - u_j) (x)
   !> (-g) V_i for j, component a of u in accu(3a - 2:3a)), each summed for i
-  !> in lanes (as pair_rows.inc) and added to j in row order.  Each quantity
-  !> has its own loop over the row, the options outside them, so that every
-  !> loop vectorises; planar (2D): only the x, y components, the others
-  !> staying zero.
+  !> in lanes (as pair_rows.inc) and added to j in row order.  M and G share
+  !> a loop over the row, the velocity gradient has its own, with the
+  !> options outside the loops, so that every loop vectorises; planar (2D):
+  !> only the x, y components, the others staying zero.
   subroutine moment_rows(with_m, with_g, with_u, planar, kernel, ntot, x, nl, nrec, rec, nr, jl, &
                          dx, dy, dz, r2l, fl, t1, t2, t3, t4, t5, t6, t7, t8, t9, acc, accu)
     logical, intent(in) :: with_m, with_g, with_u, planar
@@ -273,7 +266,9 @@ contains
     real(wp), dimension(LANES, 9) :: si, su
     real(wp) :: s2, vi, vj, rhoi, f, q, gs, xx(6), ui(3), qx, qy, qz, gx, gy, gz
     integer :: kk, i, j, l, nn, nb, b, k, c
+    if (with_g .and. .not. with_m) error stop 'moment_rows: G is summed with M'
     s2 = kernel%support**2
+    ui = 0
     do kk = 1, nl%n_rows
       i = nl%row(kk)
       if (planar) then
@@ -284,7 +279,7 @@ contains
       call kernel_f_list(kernel, nb, r2l, fl)
       vi = rec(R_VOL, i)
       rhoi = rec(R_RHO, i)
-      ui = rec(1:3, i)
+      if (with_u) ui = rec(1:3, i)
       si = 0
       ! (E3) M: for i vj xx, for j vi xx; with_g (E2) G, in the same loop
       ! (one loop per combination, without branches: each vectorises)
@@ -491,7 +486,8 @@ contains
   end function moment_term
 
   !> (R1) Whether the viscosity is reconstructed: asked for, and a viscosity
-  !> on (then the pair loop needs the strain rate of rhs_strain_rate).
+  !> on (then the pair loop needs the strain rate: rhs_renormalisation with
+  !> u, or rhs_strain_rate).
   pure logical function rhs_reconstructs(prm)
     type(rhs_params_t), intent(in) :: prm
     rhs_reconstructs = prm%reconstruct .and. prm%viscosity /= VISC_NONE
@@ -549,7 +545,8 @@ contains
       np = np + np / 8      ! room for the particle count to grow between rebuilds
       allocate(w%rec(nrec, np), w%acc(4, np), w%mom(9, np))
     end if
-    ! vg has one unused column when not asked for (moment_rows takes it)
+    ! vg: at least one column, unused where not asked for (moment_rows
+    ! takes it as an argument)
     np = 1
     if (present(with_vg)) then
       if (with_vg) np = size(w%rec, 2)

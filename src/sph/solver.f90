@@ -215,7 +215,8 @@ contains
   !> diffusion; E9: the free-surface indicator for the higher-order pressure
   !> gradient, which imposes p = 0 on free-surface partners), its halo
   !> values exchanged in turn, then (E1-E7).  The renormalised divergence
-  !> needs the first pass too, for L_i.
+  !> needs the first pass too, for L_i; so does R1, whose strain rate is
+  !> summed in it where it computes L_i (else strain_rate's own pass).
   subroutine solver_evaluate(s, env)
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
@@ -280,7 +281,8 @@ contains
   end subroutine solver_evaluate
 
   !> (R1) The strain rate of the owned particles at the current velocities
-  !> (L_i of the first pass), then of the halo copies from their owners.
+  !> with the L_i kept from an earlier stage (renormalise once a step), then
+  !> of the halo copies from their owners.
   subroutine strain_rate(s, env)
     type(solver_t), intent(inout) :: s
     type(parallel_env_t), intent(in) :: env
