@@ -234,7 +234,9 @@ contains
     real(wp), intent(in) :: lm(6), raw(9)
     real(wp) :: st(6), l(3, 3), g(3, 3)
     integer :: a
-    l = reshape([lm(1), lm(4), lm(5), lm(4), lm(2), lm(6), lm(5), lm(6), lm(3)], [3, 3])
+    l(:, 1) = [lm(1), lm(4), lm(5)]
+    l(:, 2) = [lm(4), lm(2), lm(6)]
+    l(:, 3) = [lm(5), lm(6), lm(3)]
     do a = 1, 3
       g(a, :) = matmul(l, raw(3 * a - 2:3 * a))
     end do
