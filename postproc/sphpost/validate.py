@@ -88,6 +88,19 @@ class Job:
             self.steps, self.wall = int(m.group(1)), float(m.group(2))
             self.ranks = int(m.group(3))
             self.ok = True
+            # a run continued from checkpoints (run.wall_limit, signals) logs
+            # each piece: "done:" counts the last piece, which began at the
+            # step of the last stop; an earlier piece took the wall time of
+            # its last progress line
+            stops = list(re.finditer(r"^sph: stopped by .* after step (\d+)", text, re.M))
+            if stops:
+                self.steps += int(stops[-1].group(1))
+                begin = 0
+                for stop in stops:
+                    walls = re.findall(r"^step .* wall +([0-9.]+) s", text[begin:stop.start()],
+                                       re.M)
+                    self.wall += float(walls[-1]) if walls else 0.0
+                    begin = stop.end()
         return bool(m)
 
 

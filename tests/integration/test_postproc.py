@@ -483,3 +483,25 @@ def test_package_keeps_the_library_names():
             "main_guard", "exact_ellipse"} <= set(names)
     for n in names:
         assert getattr(sp, n) is getattr(sphpost.core, n), n
+
+
+def test_validate_counts_every_piece_of_a_continued_run():
+    """A run stopped at checkpoints and continued logs each piece: validate's
+    table counts all their steps and wall time, not the last piece's."""
+    from sphpost.validate import Job
+    log = "\n".join([
+        "step       10  t    0.1  dt  1.0E-02  wall      20.0 s  ETA  80.0 s",
+        "step       12  t    0.12  dt  1.0E-02  wall      24.5 s  ETA  80.0 s",
+        "sph: stopped by run.wall_limit after step 12 (t =  1.2E-01); checkpoint written to x",
+        "step       20  t    0.2  dt  1.0E-02  wall      15.0 s  ETA  60.0 s",
+        "sph: stopped by SIGUSR1 after step 21 (t =  2.1E-01); checkpoint written to x",
+        "done: 79 steps in     150.00 s,  1.9E+00 s/step,  5.0E+03 particle-steps/s on 2 rank(s)",
+        ""])
+    j = Job("c", 10, "x.nml", [], "/nonexistent", 1.0)
+    assert j.parse(log)
+    assert (j.steps, j.ranks) == (21 + 79, 2)
+    assert j.wall == pytest.approx(24.5 + 15.0 + 150.0)
+    # an uninterrupted run: the done line alone
+    j = Job("c", 10, "x.nml", [], "/nonexistent", 1.0)
+    assert j.parse(log.split("\n", 5)[5])
+    assert (j.steps, j.wall) == (79, 150.0)
