@@ -92,34 +92,54 @@ contains
     end select
   end function particles_field_i8
 
-  !> Makes room for at least `capacity` particles, keeping the contents
-  !> (grows by half again at least, so repeated growth stays cheap).
+  !> Makes room for at least `capacity` particles, keeping the contents.
+  !> Grows to capacity + capacity/16: the halo and the owned count change a
+  !> little at each rebuild, and every per-particle array of the solver is
+  !> sized by this capacity, so headroom costs memory in all of them.  Field
+  !> by field (move_alloc), so that the transient is one field, not all.
   subroutine particles_reserve(parts, capacity)
     type(particles_t), intent(inout), target :: parts
     integer, intent(in) :: capacity
-    type(particles_t), target :: grown
-    real(wp), pointer, contiguous :: a(:, :), b(:, :)
-    integer(i8), pointer, contiguous :: ia(:), ib(:)
-    integer :: old, f
+    integer :: old, cap
     old = size(parts%rho)
     if (capacity <= old) return
-    call particles_allocate(grown, parts%dim, max(capacity, old + old / 2))
-    grown%n = parts%n
-    grown%n_halo = parts%n_halo
-    do f = 1, N_FIELDS
-      if (FIELD_TABLE(f)%integer8) then
-        ia => particles_field_i8(grown, f)
-        ib => particles_field_i8(parts, f)
-        ia(1:old) = ib
-      else
-        a => particles_field(grown, f)
-        b => particles_field(parts, f)
-        a(:, 1:old) = b
-      end if
-    end do
-    ! one copy more than moving each array, but growth is rare and no
-    ! field needs naming here
-    parts = grown
+    cap = capacity + capacity / 16
+#define FIELD(key, mem, kind, dset, mi, ha, re, sn, rs, ck) kind(mem)
+#define VECTOR(mem) call grow_vector(parts%mem)
+#define SCALAR(mem) call grow_scalar(parts%mem)
+#define INT8(mem) call grow_int8(parts%mem)
+#include "particle_fields.inc"
+#undef VECTOR
+#undef SCALAR
+#undef INT8
+#undef FIELD
+
+  contains
+
+    subroutine grow_vector(a)
+      real(wp), allocatable, intent(inout) :: a(:, :)
+      real(wp), allocatable :: b(:, :)
+      allocate(b(3, cap), source=0.0_wp)
+      b(:, 1:old) = a
+      call move_alloc(b, a)
+    end subroutine grow_vector
+
+    subroutine grow_scalar(a)
+      real(wp), allocatable, intent(inout) :: a(:)
+      real(wp), allocatable :: b(:)
+      allocate(b(cap), source=0.0_wp)
+      b(1:old) = a
+      call move_alloc(b, a)
+    end subroutine grow_scalar
+
+    subroutine grow_int8(a)
+      integer(i8), allocatable, intent(inout) :: a(:)
+      integer(i8), allocatable :: b(:)
+      allocate(b(cap), source=0_i8)
+      b(1:old) = a
+      call move_alloc(b, a)
+    end subroutine grow_int8
+
   end subroutine particles_reserve
 
   !> Reorders the owned particles: new slot k receives old particle perm(k);

@@ -188,7 +188,7 @@ contains
       error stop 'rhs_renormalisation: the strain rate needs both u and strain'
     w => own
     if (present(work)) w => work
-    call rhs_work_reserve(w, ntot, nl, REC_SHORT, with_u)
+    call rhs_work_reserve(w, ntot, nl, REC_SHORT, with_u, with_mom=.true.)
     associate(rec => w%rec, r => w%rb, nr => size(w%jl), acc => w%mom)
     ! rec: V, rho (and u) per particle; acc: M (1:6) and the sum of G (7:9)
     rec(R_VOL, 1:ntot) = m(1:ntot) / rho(1:ntot)
@@ -513,7 +513,7 @@ contains
     integer :: i
     w => own
     if (present(work)) w => work
-    call rhs_work_reserve(w, ntot, nl, REC_SHORT, .true.)
+    call rhs_work_reserve(w, ntot, nl, REC_SHORT, .true., with_mom=.true.)
     associate(rec => w%rec, r => w%rb, nr => size(w%jl))
     rec(1:3, 1:ntot) = u(:, 1:ntot)
     rec(R_VOL, 1:ntot) = m(1:ntot) / rho(1:ntot)
@@ -532,36 +532,46 @@ contains
   !> Sizes w for ntot particles, records of nrec values and the rows of nl (a row's buffers hold
   !> its longest row plus a vector of padding, lane_sums), keeping what
   !> is large enough.
-  subroutine rhs_work_reserve(w, ntot, nl, nrec, with_vg)
+  subroutine rhs_work_reserve(w, ntot, nl, nrec, with_vg, with_mom)
     type(rhs_work_t), intent(inout) :: w
     integer, intent(in) :: ntot
     type(neighbour_list_t), intent(in) :: nl
     integer, intent(in) :: nrec      !< rows of the particle record: REC_SHORT or REC_LONG
     logical, intent(in), optional :: with_vg   !< (R1) the velocity gradient's sums too
+    logical, intent(in), optional :: with_mom  !< the first pass's sums (mom) too
     integer :: np, nr
+    logical :: yes
     np = max(ntot, 1)
     if (allocated(w%rec)) then
-      if (size(w%rec, 2) < np .or. size(w%rec, 1) < nrec) deallocate(w%rec, w%acc, w%mom)
+      if (size(w%rec, 2) < np .or. size(w%rec, 1) < nrec) deallocate(w%rec, w%acc)
     end if
-    if (.not. allocated(w%rec)) then
-      np = np + np / 8      ! room for the particle count to grow between rebuilds
-      allocate(w%rec(nrec, np), w%acc(4, np), w%mom(9, np))
-    end if
-    ! vg: at least one column, unused where not asked for (moment_rows
-    ! takes it as an argument)
-    np = 1
-    if (present(with_vg)) then
-      if (with_vg) np = size(w%rec, 2)
-    end if
-    if (allocated(w%vg)) then
-      if (size(w%vg, 2) < np) deallocate(w%vg)
-    end if
-    if (.not. allocated(w%vg)) allocate(w%vg(9, np))
+    ! room for the particle count to grow a little between rebuilds
+    if (.not. allocated(w%rec)) allocate(w%rec(nrec, np + np / 16), w%acc(4, np + np / 16))
+    ! mom and vg: at least one column, unused where not asked for (the
+    ! loops take them as arguments); once grown they stay
+    yes = .false.
+    if (present(with_mom)) yes = with_mom
+    call reserve_columns(w%mom, merge(size(w%rec, 2), 1, yes))
+    yes = .false.
+    if (present(with_vg)) yes = with_vg
+    call reserve_columns(w%vg, merge(size(w%rec, 2), 1, yes))
     nr = row_capacity(nl)
     if (allocated(w%jl)) then
       if (size(w%jl) < nr) deallocate(w%jl, w%rb)
     end if
     if (.not. allocated(w%jl)) allocate(w%jl(nr), w%rb(nr, N_ROWBUF))
+
+  contains
+
+    subroutine reserve_columns(a, cols)
+      real(wp), allocatable, intent(inout) :: a(:, :)
+      integer, intent(in) :: cols
+      if (allocated(a)) then
+        if (size(a, 2) < cols) deallocate(a)
+      end if
+      if (.not. allocated(a)) allocate(a(9, cols))
+    end subroutine reserve_columns
+
   end subroutine rhs_work_reserve
 
   !> Slots of a row buffer: the longest row of nl padded to whole vectors,
@@ -618,7 +628,8 @@ contains
     type(rhs_params_t), intent(in) :: prm
     integer, intent(in) :: n, ntot
     real(wp), intent(in) :: x(3, ntot), u(3, ntot), rho(ntot), m(ntot), p(ntot)
-    real(wp), intent(in) :: grad_rho(3, ntot)
+    !> (3, ntot) with the Antuono diffusion; unread otherwise (any size)
+    real(wp), intent(in) :: grad_rho(3, *)
     type(neighbour_list_t), intent(in) :: nl
     real(wp), intent(out) :: drho(ntot), du(3, ntot)
     real(wp), intent(in), optional :: lambda(ntot)
@@ -808,7 +819,7 @@ contains
     type(kernel_t), intent(in) :: kernel
     type(pair_coefs_t), intent(in) :: c
     integer, intent(in) :: ntot, nrec, nr
-    real(wp), intent(in) :: x(3, ntot), grad_rho(3, ntot), rec(nrec, ntot)
+    real(wp), intent(in) :: x(3, ntot), grad_rho(3, *), rec(nrec, ntot)
     type(neighbour_list_t), intent(in) :: nl
     integer, intent(inout) :: jl(nr)
     real(wp), intent(inout) :: r(nr, N_ROWBUF), acc(4, ntot)
@@ -945,7 +956,7 @@ contains
     integer :: i, j, l, nn, nb, kk
     w => own
     if (present(work)) w => work
-    call rhs_work_reserve(w, ntot, nl, REC_SHORT)
+    call rhs_work_reserve(w, ntot, nl, REC_SHORT, with_mom=.true.)
     ! the work arrays: M in mom(1:6), the sum of g V in mom(7:9), the
     ! weighted sum in acc(1:3), V in rec(R_VOL); the row in jl and rb
     associate(mm => w%mom(1:6, :), s0 => w%mom(7:9, :), s1 => w%acc(1:3, :), &
