@@ -14,7 +14,7 @@
 module fluid_rhs
   use kinds, only: wp, i8
   use kernels, only: kernel_t, kernel_f_list, kernel_w, kernel_w_list
-  use neighbours, only: neighbour_list_t
+  use neighbours, only: neighbour_list_t, neighbour_row, ROW_PAD
   use sym3, only: sym_min_eigenvalue, invert_sym
   implicit none
   private
@@ -574,15 +574,14 @@ contains
 
   end subroutine rhs_work_reserve
 
-  !> Slots of a row buffer: the longest row of nl padded to whole vectors,
-  !> plus a vector.
+  !> Slots of a row buffer: the longest row of nl and the padding of
+  !> neighbour_row (ROW_PAD), rounded to whole vectors, plus a vector.
   pure integer function row_capacity(nl) result(nr)
     type(neighbour_list_t), intent(in) :: nl
     integer :: longest
     longest = 1
-    if (nl%n_rows > 0) &
-      longest = max(1, int(maxval(nl%start(2:nl%n_rows + 1) - nl%start(1:nl%n_rows))))
-    nr = ((longest + LANES) / LANES + 1) * LANES
+    if (nl%n_rows > 0) longest = max(1, nl%longest)
+    nr = ((longest + max(LANES, ROW_PAD)) / LANES + 1) * LANES
   end function row_capacity
 
   !> Time derivatives of density and velocity of the n owned particles.
@@ -873,14 +872,15 @@ contains
     integer, intent(inout) :: jl(:)
     real(wp), intent(inout) :: dx(:), dy(:), dz(:), r2l(:)
     real(wp) :: xi(3), d(3), r2
-    integer :: j
-    integer(i8) :: k
-    ! branchless compaction: always store in the next free slot, advance
-    ! only when in range (the test is too random for branch prediction)
+    integer :: j, l, nt
+    ! branchless compaction in place: always store in the next free slot,
+    ! advance only when in range (the test is too random for branch
+    ! prediction)
     xi = x(:, i)
+    call neighbour_row(nl, kk, jl, nt)
     nn = 0
-    do k = nl%start(kk), nl%start(kk + 1) - 1
-      j = nl%nbr(k)
+    do l = 1, nt
+      j = jl(l)
       d = xi - x(:, j)
       r2 = d(1)**2 + d(2)**2 + d(3)**2
       jl(nn + 1) = j
@@ -908,12 +908,12 @@ contains
     integer, intent(inout) :: jl(:)
     real(wp), intent(inout) :: dx(:), dy(:), r2l(:)
     real(wp) :: xi(2), d(2), r2
-    integer :: j
-    integer(i8) :: k
+    integer :: j, l, nt
     xi = x(1:2, i)
+    call neighbour_row(nl, kk, jl, nt)
     nn = 0
-    do k = nl%start(kk), nl%start(kk + 1) - 1
-      j = nl%nbr(k)
+    do l = 1, nt
+      j = jl(l)
       d = xi - x(1:2, j)
       r2 = d(1)**2 + d(2)**2
       jl(nn + 1) = j

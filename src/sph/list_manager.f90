@@ -3,13 +3,13 @@
 !> (doc/numerics.md, "When the list is rebuilt").
 module list_manager
   use kinds, only: wp, i8
-  use neighbours, only: neighbour_list_t, neighbour_build
+  use neighbours, only: neighbour_list_t, neighbour_build, neighbour_row, ROW_PAD
   use affine_motion, only: affine_fit
   use sym3, only: sigma_min
   use parallel_env, only: parallel_env_t, par_max, par_min, par_sum
   implicit none
   private
-  public :: list_manager_t, list_radius, list_check, list_build, list_pair_work
+  public :: list_manager_t, list_radius, list_check, list_build, list_pair_work, list_origin
 
   !> particles in the affine fits of the validity test: enough for F and V
   !> to a small fraction of the residual, at a cost independent of N
@@ -114,6 +114,17 @@ contains
     integer, intent(in) :: dim, n, ntot
     real(wp), intent(in) :: x(3, ntot), support
     integer(i8), intent(in) :: id(ntot)
+    call neighbour_build(lm%nl, dim, n, ntot, x, id, list_radius(lm, support), &
+                         list_origin(env, n, x))
+    lm%n_rebuilds = lm%n_rebuilds + 1
+  end subroutine list_build
+
+  !> The origin of the list's grid: the global lower corner of the owned
+  !> positions x(:, 1:n), the same on every rank (collective).
+  function list_origin(env, n, x) result(origin)
+    type(parallel_env_t), intent(in) :: env
+    integer, intent(in) :: n
+    real(wp), intent(in) :: x(:, :)
     real(wp) :: origin(3)
     integer :: k
     do k = 1, 3
@@ -121,22 +132,22 @@ contains
       if (n > 0) origin(k) = minval(x(k, 1:n))
       origin(k) = par_min(env, origin(k))
     end do
-    call neighbour_build(lm%nl, dim, n, ntot, x, id, list_radius(lm, support), origin)
-    lm%n_rebuilds = lm%n_rebuilds + 1
-  end subroutine list_build
+  end function list_origin
 
   !> Work of each owned particle as its number of listed pairs (a pair of
   !> two owned particles counts for both).
   subroutine list_pair_work(lm, w)
     type(list_manager_t), intent(in) :: lm
     real(wp), intent(inout) :: w(:)
-    integer :: kk, i, j
-    integer(i8) :: k
+    integer :: kk, i, j, l, nn
+    integer, allocatable :: jl(:)
     w = 0
+    allocate(jl(lm%nl%longest + ROW_PAD))
     do kk = 1, lm%nl%n_rows
       i = lm%nl%row(kk)
-      do k = lm%nl%start(kk), lm%nl%start(kk + 1) - 1
-        j = lm%nl%nbr(k)
+      call neighbour_row(lm%nl, kk, jl, nn)
+      do l = 1, nn
+        j = jl(l)
         if (i <= size(w)) w(i) = w(i) + 1
         if (j <= size(w)) w(j) = w(j) + 1
       end do

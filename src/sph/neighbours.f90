@@ -10,24 +10,52 @@
 !> far from the rest (spray, fragmenting free surfaces) cost no more than
 !> the same particles close by, and no spread stops the run.
 module neighbours
+  use, intrinsic :: iso_fortran_env, only: int8
   use kinds, only: wp, i8
   use sorting, only: sort_index
   implicit none
   private
-  public :: neighbour_list_t, cell_sort_permutation, neighbour_build, neighbour_counts
+  public :: neighbour_list_t, cell_sort_permutation, neighbour_build, neighbour_counts, &
+            neighbour_row, ROW_PAD
 
-  !> Half list in compressed rows, in canonical order (neighbour_build):
-  !> row k belongs to particle row(k) (owned, or a halo copy when > n) and
-  !> holds its partners nbr(start(k):start(k+1)-1).  Each pair within
-  !> `radius` at build time with at least one owned particle appears once.
+  !> Half list in canonical order (neighbour_build): row k belongs to
+  !> particle row(k) (owned, or a halo copy when > n) and holds its partners
+  !> in the list's order (neighbour_row).  Each pair within `radius` at build
+  !> time with at least one owned particle appears once.
+  !>
+  !> The rows are stored compressed.  A row's candidates are a few ranges of
+  !> canonical positions (the rest of its own cell and the stencil cells
+  !> after it, merged where they are consecutive): the same ranges for
+  !> every row of a cell (ranges, n_ranges), except that the first starts
+  !> after the row itself.  Row k's bytes, from start(k), hold for each range
+  !> the number of its partners, then their offsets from the range's first
+  !> position, ascending, each in `width` bytes (1 while every range is
+  !> shorter than 256 positions, else 2, else 4): about a byte a pair
+  !> against four for a list of indices.  The partner at canonical position
+  !> q is particle row(q), which is q + shift over a range whose particles
+  !> sit in consecutive slots (the solver sorts its owned particles in the
+  !> canonical order: cell_sort_permutation).
+  integer, parameter :: NOT_CONSECUTIVE = -huge(1)
+  !> neighbour_row decodes whole chunks of ROW_CHUNK offsets: its jl must
+  !> hold nl%longest + ROW_PAD entries, the stream has ROW_PAD spare bytes
+  integer, parameter :: ROW_CHUNK = 8, ROW_PAD = 2 * ROW_CHUNK
+
   type :: neighbour_list_t
     real(wp) :: radius = 0
     integer :: n = 0                      !< owned particles
     integer :: n_rows = 0                 !< rows: owned and halo particles
     integer(i8) :: n_pairs = 0
+    integer :: longest = 0                !< the most partners in a row
+    integer :: width = 1                  !< bytes per count and offset
     integer, allocatable :: row(:)        !< (n_rows) the particle of each row
-    integer(i8), allocatable :: start(:)  !< (n_rows+1)
-    integer, allocatable :: nbr(:)
+    integer, allocatable :: cell(:)       !< (n_rows) the cell of each row
+    integer, allocatable :: n_ranges(:)   !< (n_cells) ranges of a cell's rows
+    !> (3, max ranges, n_cells) first and last canonical positions, and
+    !> the shift from canonical position to slot where the range's
+    !> particles sit in consecutive slots (NOT_CONSECUTIVE otherwise)
+    integer, allocatable :: ranges(:, :, :)
+    integer(i8), allocatable :: start(:)  !< (n_rows+1) first byte of each row
+    integer(int8), allocatable :: bytes(:)
   end type neighbour_list_t
 
   !> The occupied cells of a grid of cubic cells of side `size` aligned on
@@ -53,15 +81,29 @@ contains
 
   !> The permutation that sorts particles 1..n by cell of size cell_size
   !> (new slot k holds old particle perm(k)), cells in lexicographic order.
-  subroutine cell_sort_permutation(dim, n, x, cell_size, perm)
+  !> With the list's origin and the global ids, it is the list's canonical
+  !> order (neighbour_build): the owned particles of a cell then sit in
+  !> consecutive slots in list order, so that most candidate ranges of the
+  !> list map to consecutive slots (neighbour_row); without them the grid is
+  !> aligned on the particles' lower corner, by index within a cell.
+  subroutine cell_sort_permutation(dim, n, x, cell_size, perm, origin, id)
     integer, intent(in) :: dim, n
     real(wp), intent(in) :: x(3, n), cell_size
     integer, intent(out) :: perm(n)
+    real(wp), intent(in), optional :: origin(3)
+    integer(i8), intent(in), optional :: id(n)
     type(cell_set_t) :: cs
     real(wp) :: lo(3)
+    integer :: c
     lo = 0
     if (n > 0) lo = minval(x, dim=2)
+    if (present(origin)) lo = origin
     call bin_cells(dim, n, x, cell_size, lo, cs)
+    if (present(id)) then
+      do c = 1, cs%n_cells
+        call sort_index(id, cs%order(cs%cstart(c):cs%cstart(c + 1) - 1))
+      end do
+    end if
     perm = cs%order
   end subroutine cell_sort_permutation
 
@@ -79,17 +121,20 @@ contains
   !> own row.  So the sums are bitwise independent of the decomposition.
   !> The origin must be the same on every rank; nothing else is required of
   !> it (cells are only stored where particles are).
-  subroutine neighbour_build(nl, dim, n, ntot, x, id, radius, origin)
+  subroutine neighbour_build(nl, dim, n, ntot, x, id, radius, origin, min_width)
     type(neighbour_list_t), intent(inout) :: nl
     integer, intent(in) :: dim, n, ntot
     real(wp), intent(in) :: x(3, ntot), radius, origin(3)
     integer(i8), intent(in) :: id(ntot)
+    !> at least this many bytes per count and offset (1, 2 or 4: the unit
+    !> tests' way to reach the wide encodings with few particles)
+    integer, intent(in), optional :: min_width
     type(cell_set_t) :: cs
     integer, allocatable :: keep(:)
     real(wp), allocatable :: xc(:), yc(:), zc(:)
     logical, allocatable :: owned(:)
-    integer(i8) :: np
-    integer :: a, s, c, ca, k, kk, nr, r, lo(14), hi(14), pass
+    integer(i8) :: nbytes, pos
+    integer :: a, c, ca, k, kk, nr, r, pass, lo, hi, cnt, longest
     logical :: a_owned
     real(wp) :: r2max, xa, ya, za
     nl%radius = radius
@@ -101,6 +146,8 @@ contains
     do c = 1, cs%n_cells
       call sort_index(id, cs%order(cs%cstart(c):cs%cstart(c + 1) - 1))
     end do
+    call cell_ranges(cs, nl)
+    if (present(min_width)) nl%width = max(nl%width, min_width)
     ! positions and ownership in canonical order: a cell's candidates are
     ! then contiguous and their distances a vector loop
     allocate(xc(ntot), yc(ntot), zc(ntot), owned(ntot), keep(ntot + 1))
@@ -111,70 +158,258 @@ contains
       zc(k) = x(3, a)
       owned(k) = a <= n
     end do
-    if (allocated(nl%start)) deallocate(nl%start, nl%row)
-    allocate(nl%start(ntot + 1), nl%row(ntot))
-    ! two passes over the same candidates: count each row's pairs, then
-    ! fill a list of exactly that size (one slot more: the branchless
-    ! compaction writes one past the last pair).  Growing the list instead
-    ! held the old and the new array at once, 2.5 times the list at a peak.
+    if (allocated(nl%start)) deallocate(nl%start, nl%row, nl%cell)
+    allocate(nl%start(ntot + 1), nl%row(ntot), nl%cell(ntot))
+    nl%row = cs%order
+    nl%cell = cs%cell(cs%order)
+    ! the ranges whose particles sit in consecutive slots
+    do c = 1, cs%n_cells
+      do r = 1, nl%n_ranges(c)
+        lo = nl%ranges(1, r, c)
+        hi = nl%ranges(2, r, c)
+        nl%ranges(3, r, c) = NOT_CONSECUTIVE
+        if (all(nl%row(lo + 1:hi) == nl%row(lo:hi - 1) + 1)) nl%ranges(3, r, c) = nl%row(lo) - lo
+      end do
+    end do
+    ! two passes over the same candidates: count each row's bytes, then
+    ! fill a stream of exactly that size
+    nl%n_pairs = 0
+    longest = 0
     do pass = 1, 2
-      np = 0
+      nbytes = 0
       do kk = 1, ntot
-        a = cs%order(kk)
         a_owned = owned(kk)
         xa = xc(kk)
         ya = yc(kk)
         za = zc(kk)
-        ca = cs%cell(a)
-        ! the candidates: the rest of its own cell (after it in id order),
-        ! then the cells after it, as canonical ranges; cells numbered in a
-        ! row (neighbours along x) merge into one range
-        nr = 1
-        lo(1) = kk + 1
-        hi(1) = cs%cstart(ca + 1) - 1
-        do s = 1, cs%n_after
-          c = cs%after(s, ca)
-          if (c > cs%n_cells) cycle
-          if (cs%cstart(c) == hi(nr) + 1) then
-            hi(nr) = cs%cstart(c + 1) - 1
-          else
-            nr = nr + 1
-            lo(nr) = cs%cstart(c)
-            hi(nr) = cs%cstart(c + 1) - 1
-          end if
-        end do
-        if (pass == 2) then
-          nl%row(kk) = a
-          nl%start(kk) = np + 1
-        end if
+        ca = nl%cell(kk)
+        nl%start(kk) = nbytes + 1
+        nr = nl%n_ranges(ca)
+        nbytes = nbytes + nr * nl%width
         do r = 1, nr
+          lo = nl%ranges(1, r, ca)
+          if (r == 1) lo = kk + 1
+          hi = nl%ranges(2, r, ca)
           ! in range, and not a pair of two halo copies: a vector loop
-          do k = lo(r), hi(r)
+          do k = lo, hi
             keep(k) = merge(1, 0, (xa - xc(k))**2 + (ya - yc(k))**2 + (za - zc(k))**2 &
                                   < r2max .and. (a_owned .or. owned(k)))
           end do
-          if (pass == 1) then
-            np = np + sum(keep(lo(r):hi(r)))
+          cnt = sum(keep(lo:hi))
+          if (pass == 2) then
+            pos = nl%start(kk) + (r - 1) * nl%width
+            call put(pos, cnt)
+            ! branchless: every candidate is written at the next free slot,
+            ! which advances only when it is kept (the extra write lands on
+            ! a byte the stream writes later, or on the spare bytes at the
+            ! end)
+            pos = nbytes + 1
+            if (nl%width == 1) then
+              do k = lo, hi
+                nl%bytes(pos) = byte(k - lo)
+                pos = pos + keep(k)
+              end do
+            else
+              do k = lo, hi
+                call put(pos, k - lo)
+                pos = pos + keep(k) * nl%width
+              end do
+            end if
           else
-            ! branchless compaction, as the test is too random to predict
-            do k = lo(r), hi(r)
-              nl%nbr(np + 1) = cs%order(k)
-              np = np + keep(k)
-            end do
+            nl%n_pairs = nl%n_pairs + cnt
           end if
+          nbytes = nbytes + cnt * nl%width
         end do
+        if (pass == 1) longest = max(longest, int((nbytes - nl%start(kk) + 1) / nl%width) - nr)
       end do
       if (pass == 1) then
-        if (allocated(nl%nbr)) then
-          if (size(nl%nbr, kind=i8) < np + 1 .or. size(nl%nbr, kind=i8) > np + np / 8 + 64) &
-            deallocate(nl%nbr)
+        if (allocated(nl%bytes)) then
+          if (size(nl%bytes, kind=i8) < nbytes + ROW_PAD .or. &
+              size(nl%bytes, kind=i8) > nbytes + nbytes / 8 + 64) deallocate(nl%bytes)
         end if
-        if (.not. allocated(nl%nbr)) allocate(nl%nbr(np + 1))
+        if (.not. allocated(nl%bytes)) allocate(nl%bytes(nbytes + ROW_PAD))
       end if
     end do
-    nl%start(ntot + 1) = np + 1
-    nl%n_pairs = np
+    nl%start(ntot + 1) = nbytes + 1
+    nl%longest = longest
+
+  contains
+
+    !> v (0 <= v < 256^width) as `width` bytes from pos, the lowest first
+    subroutine put(pos, v)
+      integer(i8), intent(in) :: pos
+      integer, intent(in) :: v
+      integer :: b
+      do b = 0, nl%width - 1
+        nl%bytes(pos + b) = byte(ishft(v, -8 * b))
+      end do
+    end subroutine put
+
   end subroutine neighbour_build
+
+  !> The lowest 8 bits of v as a (two's complement) int8.
+  elemental integer(int8) function byte(v)
+    integer, intent(in) :: v
+    byte = int(iand(v, 255) - merge(256, 0, iand(v, 255) > 127), int8)
+  end function byte
+
+  !> The candidate ranges of the rows of each cell (neighbour_list_t): the
+  !> cell itself, then the stencil cells after it, as ranges of canonical
+  !> positions; cells consecutive in canonical order (neighbours along x)
+  !> merge into one range.  The width of the counts and offsets: 1 byte
+  !> while every range is shorter than 256 positions, else 2, else 4.
+  subroutine cell_ranges(cs, nl)
+    type(cell_set_t), intent(in) :: cs
+    type(neighbour_list_t), intent(inout) :: nl
+    integer :: ca, s, c, nr, longest
+    if (allocated(nl%ranges)) deallocate(nl%ranges, nl%n_ranges)
+    allocate(nl%ranges(3, 1 + cs%n_after, max(cs%n_cells, 1)), nl%n_ranges(max(cs%n_cells, 1)))
+    nl%n_ranges = 0
+    longest = 0
+    do ca = 1, cs%n_cells
+      nr = 1
+      nl%ranges(1:2, 1, ca) = [cs%cstart(ca), cs%cstart(ca + 1) - 1]
+      do s = 1, cs%n_after
+        c = cs%after(s, ca)
+        if (c > cs%n_cells) cycle
+        if (cs%cstart(c) == nl%ranges(2, nr, ca) + 1) then
+          nl%ranges(2, nr, ca) = cs%cstart(c + 1) - 1
+        else
+          nr = nr + 1
+          nl%ranges(1:2, nr, ca) = [cs%cstart(c), cs%cstart(c + 1) - 1]
+        end if
+      end do
+      nl%n_ranges(ca) = nr
+      longest = max(longest, maxval(nl%ranges(2, 1:nr, ca) - nl%ranges(1, 1:nr, ca) + 1))
+    end do
+    nl%width = 4
+    if (longest < 2**16) nl%width = 2
+    if (longest < 2**8) nl%width = 1
+  end subroutine cell_ranges
+
+  !> The partners of row kk (particle nl%row(kk)) in jl(1:nn), in the
+  !> list's order: ascending canonical position within each range, the
+  !> ranges in stencil order.  jl must hold nl%longest + ROW_PAD entries.
+  pure subroutine neighbour_row(nl, kk, jl, nn)
+    type(neighbour_list_t), intent(in) :: nl
+    integer, intent(in) :: kk
+    integer, intent(inout) :: jl(:)
+    integer, intent(out) :: nn
+    integer(i8) :: p
+    integer :: ca, r, lo, cnt, l
+    ca = nl%cell(kk)
+    p = nl%start(kk) + nl%n_ranges(ca) * nl%width
+    nn = 0
+    select case (nl%width)
+    case (1)
+      call decode_bytes(nl%n_ranges(ca), nl%ranges(:, :, ca), nl%bytes(nl%start(kk):), nl%row, &
+                        kk + 1, jl, nn)
+    case (2)
+      call decode_pairs(nl%n_ranges(ca), nl%ranges(:, :, ca), nl%bytes(nl%start(kk):), nl%row, &
+                        kk + 1, jl, nn)
+    case default
+      do r = 1, nl%n_ranges(ca)
+        lo = nl%ranges(1, r, ca)
+        if (r == 1) lo = kk + 1
+        cnt = get(nl%start(kk) + (r - 1) * nl%width)
+        do l = 1, cnt
+          jl(nn + l) = nl%row(lo + get(p + (l - 1) * nl%width))
+        end do
+        nn = nn + cnt
+        p = p + cnt * nl%width
+      end do
+    end select
+
+  contains
+
+    pure integer function get(pos) result(v)
+      integer(i8), intent(in) :: pos
+      integer :: b
+      v = 0
+      do b = nl%width - 1, 0, -1
+        v = ior(ishft(v, 8), iand(int(nl%bytes(pos + b)), 255))
+      end do
+    end function get
+
+  end subroutine neighbour_row
+
+  !> neighbour_row for one-byte offsets, on plain arrays (no descriptor
+  !> loads in the loops): rg the ranges of the row's cell, b the row's
+  !> bytes, first the canonical position after the row's own.
+  !> The offsets are decoded a chunk of ROW_CHUNK at a time, whole chunks:
+  !> a fixed trip count the processor predicts, where the count of each
+  !> range (a few to a few tens) made the loop's exits mispredict.  The
+  !> slots past a range's count are overwritten by the next range or lie
+  !> beyond nn (jl holds ROW_PAD more than the longest row, the stream has
+  !> as many spare bytes), and a gather index past the range is clamped.
+  pure subroutine decode_bytes(nr, rg, b, row, first, jl, nn)
+    integer, intent(in) :: nr, first
+    integer, intent(in) :: rg(3, nr), row(*)
+    integer(int8), intent(in) :: b(*)
+    integer, intent(inout) :: jl(*)
+    integer, intent(out) :: nn
+    integer :: r, lo, hi, cnt, l, c, shift, p
+    nn = 0
+    p = nr
+    do r = 1, nr
+      lo = rg(1, r)
+      if (r == 1) lo = first
+      shift = rg(3, r)
+      cnt = iand(int(b(r)), 255)
+      if (shift /= NOT_CONSECUTIVE) then
+        do c = 0, cnt - 1, ROW_CHUNK
+          do l = 1, ROW_CHUNK
+            jl(nn + c + l) = lo + shift + iand(int(b(p + c + l)), 255)
+          end do
+        end do
+      else
+        hi = rg(2, r)
+        do c = 0, cnt - 1, ROW_CHUNK
+          do l = 1, ROW_CHUNK
+            jl(nn + c + l) = row(min(hi, lo + iand(int(b(p + c + l)), 255)))
+          end do
+        end do
+      end if
+      nn = nn + cnt
+      p = p + cnt
+    end do
+  end subroutine decode_bytes
+
+  !> decode_bytes for two-byte counts and offsets (the lower byte first).
+  pure subroutine decode_pairs(nr, rg, b, row, first, jl, nn)
+    integer, intent(in) :: nr, first
+    integer, intent(in) :: rg(3, nr), row(*)
+    integer(int8), intent(in) :: b(*)
+    integer, intent(inout) :: jl(*)
+    integer, intent(out) :: nn
+    integer :: r, lo, hi, cnt, l, c, shift, p
+    nn = 0
+    p = 2 * nr
+    do r = 1, nr
+      lo = rg(1, r)
+      if (r == 1) lo = first
+      shift = rg(3, r)
+      cnt = iand(int(b(2 * r - 1)), 255) + 256 * iand(int(b(2 * r)), 255)
+      if (shift /= NOT_CONSECUTIVE) then
+        do c = 0, cnt - 1, ROW_CHUNK
+          do l = 1, ROW_CHUNK
+            jl(nn + c + l) = lo + shift + iand(int(b(p + 2 * (c + l) - 1)), 255) &
+                             + 256 * iand(int(b(p + 2 * (c + l))), 255)
+          end do
+        end do
+      else
+        hi = rg(2, r)
+        do c = 0, cnt - 1, ROW_CHUNK
+          do l = 1, ROW_CHUNK
+            jl(nn + c + l) = row(min(hi, lo + iand(int(b(p + 2 * (c + l) - 1)), 255) &
+                                         + 256 * iand(int(b(p + 2 * (c + l))), 255)))
+          end do
+        end do
+      end if
+      nn = nn + cnt
+      p = p + 2 * cnt
+    end do
+  end subroutine decode_pairs
 
   !> Bins particles 1..ntot on the occupied cells of side `size` aligned on
   !> `origin` (cell_set_t), in O(ntot) expected time plus the sort of the
@@ -347,14 +582,16 @@ contains
     integer, intent(in) :: n
     real(wp), intent(in) :: x(:, :), s2
     integer(i8), intent(out) :: listed, in_range
-    integer :: kk, i, j, w
-    integer(i8) :: k
+    integer :: kk, i, j, w, l, nn
+    integer, allocatable :: jl(:)
     listed = 0
     in_range = 0
+    allocate(jl(nl%longest + ROW_PAD))
     do kk = 1, nl%n_rows
       i = nl%row(kk)
-      do k = nl%start(kk), nl%start(kk + 1) - 1
-        j = nl%nbr(k)
+      call neighbour_row(nl, kk, jl, nn)
+      do l = 1, nn
+        j = jl(l)
         w = merge(1, 0, i <= n) + merge(1, 0, j <= n)
         listed = listed + w
         if (sum((x(:, i) - x(:, j))**2) < s2) in_range = in_range + w

@@ -17,7 +17,7 @@ module packing
   use kinds, only: wp, i8, pi
   use kernels, only: kernel_t, kernel_w, kernel_f_list, kernel_w_list
   use fluid_rhs, only: row_capacity
-  use neighbours, only: neighbour_list_t
+  use neighbours, only: neighbour_list_t, neighbour_row
   use solver, only: solver_t, solver_rebuild
   use decomposition, only: decomp_refresh
   use parallel_env, only: parallel_env_t, par_max, par_sum, par_sum_exact, wall_time
@@ -133,10 +133,12 @@ contains
     logical, intent(in) :: with_sum
     real(wp), intent(out) :: grad(3, ntot), gam(ntot)
     real(wp), allocatable :: rb(:, :)
+    integer, allocatable :: jl(:)
     integer :: nr
     nr = row_capacity(nl)
     allocate(rb(nr, 5))
-    call gradient_rows(kernel, ntot, x, nl, with_sum, nr, rb(:, 1), rb(:, 2), rb(:, 3), &
+    allocate(jl(nr))
+    call gradient_rows(kernel, ntot, x, nl, with_sum, nr, jl, rb(:, 1), rb(:, 2), rb(:, 3), &
                        rb(:, 4), rb(:, 5), grad, gam)
     grad(:, 1:n) = vol * grad(:, 1:n)
     gam(1:n) = vol * (gam(1:n) + kernel_w(kernel, 0.0_wp))
@@ -145,26 +147,25 @@ contains
   end subroutine sum_gradient
 
   !> The rows of sum_gradient, with explicit-shape buffers (vectorised).
-  subroutine gradient_rows(kernel, ntot, x, nl, with_sum, nr, dx, dy, dz, r2l, fl, grad, gam)
+  subroutine gradient_rows(kernel, ntot, x, nl, with_sum, nr, jl, dx, dy, dz, r2l, fl, grad, gam)
     type(kernel_t), intent(in) :: kernel
     integer, intent(in) :: ntot, nr
     real(wp), intent(in) :: x(3, ntot)
     type(neighbour_list_t), intent(in) :: nl
     logical, intent(in) :: with_sum
+    integer, intent(inout) :: jl(nr)        !< the row's partners (neighbour_row)
     real(wp), intent(inout), dimension(nr) :: dx, dy, dz, r2l, fl
     real(wp), intent(out) :: grad(3, ntot), gam(ntot)
     real(wp) :: gi(3), g(3), si, xi(3)
     integer :: kk, i, j, l, nn
-    integer(i8) :: k0
     grad = 0
     gam = 0
     do kk = 1, nl%n_rows
       i = nl%row(kk)
-      k0 = nl%start(kk) - 1
-      nn = int(nl%start(kk + 1) - 1 - k0)
+      call neighbour_row(nl, kk, jl, nn)
       xi = x(:, i)
       do l = 1, nn
-        j = nl%nbr(k0 + l)
+        j = jl(l)
         dx(l) = xi(1) - x(1, j)
         dy(l) = xi(2) - x(2, j)
         dz(l) = xi(3) - x(3, j)
@@ -173,7 +174,7 @@ contains
       call kernel_f_list(kernel, nn, r2l, fl)
       gi = 0
       do l = 1, nn
-        j = nl%nbr(k0 + l)
+        j = jl(l)
         g = fl(l) * [dx(l), dy(l), dz(l)]
         gi = gi + g
         grad(:, j) = grad(:, j) - g
@@ -183,7 +184,7 @@ contains
       call kernel_w_list(kernel, nn, r2l, fl)
       si = 0
       do l = 1, nn
-        j = nl%nbr(k0 + l)
+        j = jl(l)
         si = si + fl(l)
         gam(j) = gam(j) + fl(l)
       end do

@@ -8,7 +8,8 @@ module solver
   use kinds, only: wp
   use particles, only: particles_t, particles_permute
   use neighbours, only: cell_sort_permutation
-  use list_manager, only: list_manager_t, list_radius, list_check, list_build, list_pair_work
+  use list_manager, only: list_manager_t, list_radius, list_check, list_build, list_pair_work, &
+                          list_origin
   use eos, only: eos_t, eos_pressure
   use fluid_rhs, only: rhs_params_t, rhs_work_t, rhs_renormalisation, rhs_evaluate, rhs_shift, &
                        rhs_strain_rate, rhs_reconstructs, DIFF_ANTUONO, DIFF_NONE, VISC_NONE, &
@@ -199,7 +200,10 @@ contains
       call work(w)
       call decomp_redistribute(s%dc, env, pt, w, radius, s%lm%n_rebuilds == 0)
       allocate(perm(pt%n))
-      call cell_sort_permutation(pt%dim, pt%n, pt%x, radius, perm)
+      ! the list's canonical order (most of its ranges then map to
+      ! consecutive slots: neighbour_row)
+      call cell_sort_permutation(pt%dim, pt%n, pt%x, radius, perm, &
+                                 list_origin(env, pt%n, pt%x), pt%id(1:pt%n))
       call particles_permute(pt, perm)
       call decomp_halo_build(s%dc, env, pt, radius)
       call ensure_capacity(s)
