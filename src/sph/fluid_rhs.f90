@@ -127,8 +127,11 @@ module fluid_rhs
     real(wp), allocatable :: rec(:, :)
     integer, allocatable :: jl(:)
     real(wp), allocatable :: rb(:, :)     !< (nr, N_ROWBUF) the row buffers of pair_rows.inc
-    real(wp), allocatable :: acc(:, :)
-    real(wp), allocatable :: mom(:, :)    !< (9, :) M and G of rhs_renormalisation
+    !> the per-particle sums of a pass, viewed as (rows, ntot) through a
+    !> pointer (sums_view): 4 rows in rhs_evaluate (drho, du), 9 in the
+    !> first pass (M, G), 12 in rhs_shift; one buffer, sized for the most
+    !> rows asked for, since the passes never need theirs at once
+    real(wp), allocatable :: sums(:)
     real(wp), allocatable :: vg(:, :)     !< (9, :) (R1) the velocity gradient's sums
   end type rhs_work_t
 
@@ -179,6 +182,7 @@ contains
     real(wp), intent(out), optional :: strain(6, ntot)
     type(rhs_work_t), target :: own
     type(rhs_work_t), pointer :: w
+    real(wp), pointer, contiguous :: acc(:, :)
     real(wp) :: inv(3, 3), det, l6(6)
     integer :: i
     logical :: with_g, with_u
@@ -188,8 +192,9 @@ contains
       error stop 'rhs_renormalisation: the strain rate needs both u and strain'
     w => own
     if (present(work)) w => work
-    call rhs_work_reserve(w, ntot, nl, REC_SHORT, with_u, with_mom=.true.)
-    associate(rec => w%rec, r => w%rb, nr => size(w%jl), acc => w%mom)
+    call rhs_work_reserve(w, ntot, nl, REC_SHORT, with_u, sum_rows=9)
+    acc => sums_view(w, 9, ntot)
+    associate(rec => w%rec, r => w%rb, nr => size(w%jl))
     ! rec: V, rho (and u) per particle; acc: M (1:6) and the sum of G (7:9)
     rec(R_VOL, 1:ntot) = m(1:ntot) / rho(1:ntot)
     if (present(phi)) then
@@ -513,7 +518,7 @@ contains
     integer :: i
     w => own
     if (present(work)) w => work
-    call rhs_work_reserve(w, ntot, nl, REC_SHORT, .true., with_mom=.true.)
+    call rhs_work_reserve(w, ntot, nl, REC_SHORT, .true., sum_rows=9)
     associate(rec => w%rec, r => w%rb, nr => size(w%jl))
     rec(1:3, 1:ntot) = u(:, 1:ntot)
     rec(R_VOL, 1:ntot) = m(1:ntot) / rho(1:ntot)
@@ -521,7 +526,7 @@ contains
     call moment_rows(.false., .false., .true., prm%dim == 2, prm%kernel, ntot, x, nl, &
                      size(rec, 1), rec, nr, w%jl, r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), &
                      r(:, 6), r(:, 7), r(:, 8), r(:, 9), r(:, 10), r(:, 11), r(:, 12), r(:, 13), &
-                     r(:, 14), w%mom, w%vg)
+                     r(:, 14), sums_view(w, 9, ntot), w%vg)
     strain = 0
     do i = 1, n
       strain(:, i) = strain_of(lmat(:, i), w%vg(:, i))
@@ -532,47 +537,48 @@ contains
   !> Sizes w for ntot particles, records of nrec values and the rows of nl (a row's buffers hold
   !> its longest row plus a vector of padding, lane_sums), keeping what
   !> is large enough.
-  subroutine rhs_work_reserve(w, ntot, nl, nrec, with_vg, with_mom)
+  subroutine rhs_work_reserve(w, ntot, nl, nrec, with_vg, sum_rows)
     type(rhs_work_t), intent(inout) :: w
     integer, intent(in) :: ntot
     type(neighbour_list_t), intent(in) :: nl
     integer, intent(in) :: nrec      !< rows of the particle record: REC_SHORT or REC_LONG
     logical, intent(in), optional :: with_vg   !< (R1) the velocity gradient's sums too
-    logical, intent(in), optional :: with_mom  !< the first pass's sums (mom) too
+    integer, intent(in) :: sum_rows  !< rows of the pass's sums (rhs_work_t%sums)
     integer :: np, nr
     logical :: yes
     np = max(ntot, 1)
     if (allocated(w%rec)) then
-      if (size(w%rec, 2) < np .or. size(w%rec, 1) < nrec) deallocate(w%rec, w%acc)
+      if (size(w%rec, 2) < np .or. size(w%rec, 1) < nrec) deallocate(w%rec)
     end if
     ! room for the particle count to grow a little between rebuilds
-    if (.not. allocated(w%rec)) allocate(w%rec(nrec, np + np / 16), w%acc(4, np + np / 16))
-    ! mom and vg: at least one column, unused where not asked for (the
-    ! loops take them as arguments); once grown they stay
-    yes = .false.
-    if (present(with_mom)) yes = with_mom
-    call reserve_columns(w%mom, merge(size(w%rec, 2), 1, yes))
+    if (.not. allocated(w%rec)) allocate(w%rec(nrec, np + np / 16))
+    if (allocated(w%sums)) then
+      if (size(w%sums, kind=i8) < int(sum_rows, i8) * np) deallocate(w%sums)
+    end if
+    if (.not. allocated(w%sums)) allocate(w%sums(int(sum_rows, i8) * (np + np / 16)))
+    ! vg: at least one column, unused where not asked for (the loops take
+    ! it as an argument); once grown it stays
     yes = .false.
     if (present(with_vg)) yes = with_vg
-    call reserve_columns(w%vg, merge(size(w%rec, 2), 1, yes))
+    np = merge(size(w%rec, 2), 1, yes)
+    if (allocated(w%vg)) then
+      if (size(w%vg, 2) < np) deallocate(w%vg)
+    end if
+    if (.not. allocated(w%vg)) allocate(w%vg(9, np))
     nr = row_capacity(nl)
     if (allocated(w%jl)) then
       if (size(w%jl) < nr) deallocate(w%jl, w%rb)
     end if
     if (.not. allocated(w%jl)) allocate(w%jl(nr), w%rb(nr, N_ROWBUF))
-
-  contains
-
-    subroutine reserve_columns(a, cols)
-      real(wp), allocatable, intent(inout) :: a(:, :)
-      integer, intent(in) :: cols
-      if (allocated(a)) then
-        if (size(a, 2) < cols) deallocate(a)
-      end if
-      if (.not. allocated(a)) allocate(a(9, cols))
-    end subroutine reserve_columns
-
   end subroutine rhs_work_reserve
+
+  !> The first rows * ntot of w%sums as a (rows, ntot) array.
+  function sums_view(w, rows, ntot) result(v)
+    type(rhs_work_t), intent(in), target :: w
+    integer, intent(in) :: rows, ntot
+    real(wp), pointer, contiguous :: v(:, :)
+    v(1:rows, 1:ntot) => w%sums(1:int(rows, i8) * ntot)
+  end function sums_view
 
   !> Slots of a row buffer: the longest row of nl and the padding of
   !> neighbour_row (ROW_PAD), rounded to whole vectors, plus a vector.
@@ -638,6 +644,7 @@ contains
     real(wp), intent(in), optional :: strain(:, :)
     type(rhs_work_t), target :: own
     type(rhs_work_t), pointer :: w
+    real(wp), pointer, contiguous :: acc(:, :)
     real(wp) :: s2, h, eta2, coef_visc, coef_mon, diff_coef, inv_wdx
     type(pair_coefs_t) :: c
     logical :: antuono, tensile, corrected, renorm_div, renorm, delta_visc, monaghan_visc, recon
@@ -674,7 +681,8 @@ contains
     if (present(work)) w => work
     nrec_need = merge(REC_LONG, REC_SHORT, renorm .or. tensile)
     if (recon) nrec_need = REC_RECON
-    call rhs_work_reserve(w, ntot, nl, nrec_need)
+    call rhs_work_reserve(w, ntot, nl, nrec_need, sum_rows=4)
+    acc => sums_view(w, 4, ntot)
     ! per particle: u, rho, p, V = m/rho and 1/rho (no division in the
     ! pair loop), and what the options need
     associate(rec => w%rec)
@@ -710,7 +718,7 @@ contains
                                           - LAMBDA_BLEND) / (LAMBDA_NEAR - LAMBDA_BLEND)))
     end if
     end associate
-    w%acc(:, 1:ntot) = 0
+    acc = 0
     c = pair_coefs_t(s2, eta2, coef_visc, coef_mon, diff_coef, inv_wdx, prm%tensile_n)
     ! the common configurations have their own vectorised copies of the loop
     ! (the planar twins in 2D, where the z components are zero)
@@ -725,16 +733,16 @@ contains
     associate(r => w%rb, nr => size(w%jl), nrec => size(w%rec, 1))
     if (vec /= 0) then
       call rows_vectorised(vec, planar, prm%kernel, c, ntot, x, grad_rho, nl, nrec, w%rec, nr, &
-                           w%jl, r, w%acc)
+                           w%jl, r, acc)
     else
       call rows_general(renorm_div, corrected, antuono, tensile, delta_visc, monaghan_visc, &
                         recon, adjoint, prm%kernel, c, ntot, x, grad_rho, nl, nrec, w%rec, nr, &
                         w%jl, r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), &
-                        r(:, 8), r(:, 9), r(:, 10), w%acc)
+                        r(:, 8), r(:, 9), r(:, 10), acc)
     end if
     end associate
-    drho(1:n) = w%acc(1, 1:n)
-    du(:, 1:n) = w%acc(2:4, 1:n)
+    drho(1:n) = acc(1, 1:n)
+    du(:, 1:n) = acc(2:4, 1:n)
     ! halo slots hold partial sums: their owners compute the real values
     drho(n + 1:ntot) = 0
     du(:, n + 1:ntot) = 0
@@ -951,15 +959,17 @@ contains
     type(rhs_work_t), intent(inout), optional, target :: work
     type(rhs_work_t), target :: own
     type(rhs_work_t), pointer :: w
+    real(wp), pointer, contiguous :: acc(:, :)
     real(wp) :: xij(3), g(3), xx(6), mi(6), s0i(3), s1i(3), wgt, inv_wdx, s2, vi, vj
     real(wp) :: inv(3, 3), det, nu(3), nn_(3), a
     integer :: i, j, l, nn, nb, kk
     w => own
     if (present(work)) w => work
-    call rhs_work_reserve(w, ntot, nl, REC_SHORT, with_mom=.true.)
-    ! the work arrays: M in mom(1:6), the sum of g V in mom(7:9), the
-    ! weighted sum in acc(1:3), V in rec(R_VOL); the row in jl and rb
-    associate(mm => w%mom(1:6, :), s0 => w%mom(7:9, :), s1 => w%acc(1:3, :), &
+    call rhs_work_reserve(w, ntot, nl, REC_SHORT, sum_rows=12)
+    acc => sums_view(w, 12, ntot)
+    ! the work arrays: M in sums(1:6), the sum of g V in sums(7:9), the
+    ! weighted sum in sums(10:12), V in rec(R_VOL); the row in jl and rb
+    associate(mm => acc(1:6, :), s0 => acc(7:9, :), s1 => acc(10:12, :), &
               vol => w%rec(R_VOL, :), jl => w%jl, xd => w%rb(:, 1), yd => w%rb(:, 2), &
               zd => w%rb(:, 3), r2l => w%rb(:, 4), fl => w%rb(:, 5), wl => w%rb(:, 6))
     mm(:, 1:ntot) = 0
