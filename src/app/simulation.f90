@@ -73,7 +73,7 @@ contains
     type(config_t), intent(in) :: cfg_in
     type(parallel_env_t), intent(in) :: env
     integer, intent(out) :: status
-    type(solver_t) :: s
+    type(solver_t), target :: s        !< target: the snapshots view its particles
     type(run_t) :: run
     real(wp) :: t, dt, dx, t_next_out, wall0, wall_last, dt_est, t_end, tol, t0_run
     real(wp) :: wall_start, wall_iter, iter_max, write_max, w
@@ -454,7 +454,7 @@ contains
   subroutine write_snapshot(cfg, env, s, run, t, step, ok)
     type(config_t), intent(in) :: cfg
     type(parallel_env_t), intent(in) :: env
-    type(solver_t), intent(inout) :: s
+    type(solver_t), intent(inout), target :: s     !< the snapshot views its particles
     type(run_t), intent(inout) :: run
     real(wp), intent(in) :: t
     integer, intent(in) :: step
@@ -512,7 +512,7 @@ contains
   !> have; it is not in the XDMF index.  The time series is flushed too.
   subroutine write_checkpoint(env, s, run, t, step, ok)
     type(parallel_env_t), intent(in) :: env
-    type(solver_t), intent(in) :: s
+    type(solver_t), intent(in), target :: s        !< the checkpoint views its particles
     type(run_t), intent(inout) :: run
     real(wp), intent(in) :: t
     integer, intent(in) :: step

@@ -13,10 +13,11 @@ module particle_io
 contains
 
   !> The registered snapshot fields of the owned particles, in table order
-  !> (vectors with their 3 rows: the snapshot keeps the first dim), then
-  !> `extra`, whose arrays are moved, not copied (a snapshot of a million
-  !> particles holds one copy of each field at a time).  A checkpoint holds
-  !> the registered checkpoint fields too.
+  !> (vectors with their 3 rows: the snapshot keeps the first dim), as
+  !> views of the particles' arrays (parts must be a target in the caller
+  !> and stay unchanged until the write), then `extra`, whose arrays are
+  !> moved, not copied.  A checkpoint holds the registered checkpoint fields
+  !> too.
   subroutine particles_snapshot_fields(parts, extra, fields, checkpoint)
     type(particles_t), intent(in), target :: parts
     type(snapshot_field_t), intent(inout) :: extra(:)
@@ -40,15 +41,17 @@ contains
     do j = 1, m
       f = keys(j)
       fields(j)%name = trim(FIELD_TABLE(f)%name)
+      ! views of the particles' arrays, not copies (their first n entries
+      ! are contiguous)
       if (FIELD_TABLE(f)%integer8) then
         ia => particles_field_i8(parts, f)
-        fields(j)%i = ia(1:n)
+        fields(j)%i_view => ia(1:n)
       else if (FIELD_TABLE(f)%ncomp == 1) then
         a => particles_field(parts, f)
-        fields(j)%s = a(1, 1:n)
+        fields(j)%s_view(1:n) => a(:, 1:n)
       else
         a => particles_field(parts, f)
-        fields(j)%v = a(:, 1:n)
+        fields(j)%v_view => a(:, 1:n)
       end if
     end do
     do j = 1, size(extra)

@@ -55,13 +55,19 @@ module snapshot_io
   integer, parameter :: SNAPSHOT_FORMAT_VERSION = 1 !< root attribute `format_version`
 
   !> A named field: real scalar s(n), real vector v(dim, n) or int64 i(n);
-  !> exactly one is allocated.  Arrays may be longer than the local count
-  !> (capacity, halo): only the first n_local entries are written.
+  !> exactly one is allocated, or instead exactly one of the views s_view,
+  !> v_view, i_view points to data the caller keeps alive while it writes
+  !> (the particles' own arrays, written without a copy).  Arrays may be
+  !> longer than the local count (capacity, halo): only the first n_local
+  !> entries are written.
   type :: snapshot_field_t
     character(len=:), allocatable :: name
     real(wp), allocatable :: s(:)
     real(wp), allocatable :: v(:,:)
     integer(i8), allocatable :: i(:)
+    real(wp), pointer, contiguous :: s_view(:) => null()
+    real(wp), pointer, contiguous :: v_view(:, :) => null()
+    integer(i8), pointer, contiguous :: i_view(:) => null()
   end type snapshot_field_t
 
   !> A snapshot as read back: this rank's contiguous block of rows
@@ -185,15 +191,18 @@ contains
 
       do k = 1, nfields
         associate (f => fields(k))
-          if (allocated(f%i)) then
+          select case (kind_of(f))
+          case ('i')
             if (.not. write_block(file_id, dxpl, f%name, H5T_STD_I64LE, &
-                                  h5kind_to_type(i8, H5_INTEGER_KIND), loc_i1(f%i, idummy), &
-                                  1, 1, n_local, offset, n_global, errmsg)) exit io
-          else if (allocated(f%s)) then
-            if (.not. write_real(file_id, dxpl, f%name, f%s, 1, 1)) exit io
-          else
-            if (.not. write_real(file_id, dxpl, f%name, f%v, size(f%v, 1), dim)) exit io
-          end if
+                                  h5kind_to_type(i8, H5_INTEGER_KIND), &
+                                  loc_i1(field_i(f), idummy), 1, 1, n_local, offset, &
+                                  n_global, errmsg)) exit io
+          case ('s')
+            if (.not. write_real(file_id, dxpl, f%name, field_s(f), 1, 1)) exit io
+          case default
+            if (.not. write_real(file_id, dxpl, f%name, field_v(f), size(field_v(f), 1), &
+                                 dim)) exit io
+          end select
         end associate
       end do
       if (.not. write_connectivity()) exit io
@@ -315,18 +324,19 @@ contains
         else if (fields(j)%name == 'connectivity') then
           msg = 'snapshot_write: field "connectivity" is made by the writer'
         else if (count([allocated(fields(j)%s), allocated(fields(j)%v), &
-                        allocated(fields(j)%i)]) /= 1) then
+                        allocated(fields(j)%i), associated(fields(j)%s_view), &
+                        associated(fields(j)%v_view), associated(fields(j)%i_view)]) /= 1) then
           msg = 'snapshot_write: field "' // fields(j)%name // &
-                '" needs exactly one of s (scalar), v (vector) and i (int64)'
-        else if (allocated(fields(j)%s)) then
-          if (size(fields(j)%s) < n_local) &
+                '" needs exactly one of s (scalar), v (vector) and i (int64), or of their views'
+        else if (kind_of(fields(j)) == 's') then
+          if (size(field_s(fields(j))) < n_local) &
             msg = 'snapshot_write: field "' // fields(j)%name // '" is shorter than n_local'
-        else if (allocated(fields(j)%i)) then
-          if (size(fields(j)%i) < n_local) &
+        else if (kind_of(fields(j)) == 'i') then
+          if (size(field_i(fields(j))) < n_local) &
             msg = 'snapshot_write: field "' // fields(j)%name // '" is shorter than n_local'
-        else if (size(fields(j)%v, 2) < n_local) then
+        else if (size(field_v(fields(j)), 2) < n_local) then
           msg = 'snapshot_write: field "' // fields(j)%name // '" is shorter than n_local'
-        else if (size(fields(j)%v, 1) < dim) then
+        else if (size(field_v(fields(j)), 1) < dim) then
           msg = 'snapshot_write: field "' // fields(j)%name // '" has fewer than dim rows'
         end if
         if (len(msg) == 0) then
@@ -715,8 +725,8 @@ contains
         if (any(STANDARD_DATASETS == fields(k)%name)) cycle
         nextra = nextra + 1
         e%names(nextra) = fields(k)%name
-        e%ncomp(nextra) = merge(dim, 1, allocated(fields(k)%v))
-        e%int8(nextra) = allocated(fields(k)%i)
+        e%ncomp(nextra) = merge(dim, 1, kind_of(fields(k)) == 'v')
+        e%int8(nextra) = kind_of(fields(k)) == 'i'
       end do
       e%names = e%names(1:nextra)
       e%ncomp = e%ncomp(1:nextra)
@@ -819,9 +829,40 @@ contains
   pure character function kind_of(field)
     type(snapshot_field_t), intent(in) :: field
     kind_of = 'v'
-    if (allocated(field%s)) kind_of = 's'
-    if (allocated(field%i)) kind_of = 'i'
+    if (allocated(field%s) .or. associated(field%s_view)) kind_of = 's'
+    if (allocated(field%i) .or. associated(field%i_view)) kind_of = 'i'
   end function kind_of
+
+  !> A field's data, its own array or its view.
+  function field_s(field) result(a)
+    type(snapshot_field_t), intent(in), target :: field
+    real(wp), pointer, contiguous :: a(:)
+    if (allocated(field%s)) then
+      a => field%s
+    else
+      a => field%s_view
+    end if
+  end function field_s
+
+  function field_v(field) result(a)
+    type(snapshot_field_t), intent(in), target :: field
+    real(wp), pointer, contiguous :: a(:, :)
+    if (allocated(field%v)) then
+      a => field%v
+    else
+      a => field%v_view
+    end if
+  end function field_v
+
+  function field_i(field) result(a)
+    type(snapshot_field_t), intent(in), target :: field
+    integer(i8), pointer, contiguous :: a(:)
+    if (allocated(field%i)) then
+      a => field%i
+    else
+      a => field%i_view
+    end if
+  end function field_i
 
   integer function connectivity_precision(n_global)
     integer(i8), intent(in) :: n_global
