@@ -16,7 +16,7 @@ module neighbours
   implicit none
   private
   public :: neighbour_list_t, cell_sort_permutation, neighbour_build, neighbour_counts, &
-            neighbour_row, ROW_PAD
+            neighbour_row, ROW_PAD, STREAM_PAD
 
   !> Half list in canonical order (neighbour_build): row k belongs to
   !> particle row(k) (owned, or a halo copy when > n) and holds its partners
@@ -37,8 +37,8 @@ module neighbours
   !> canonical order: cell_sort_permutation).
   integer, parameter :: NOT_CONSECUTIVE = -huge(1)
   !> neighbour_row decodes whole chunks of ROW_CHUNK offsets: its jl must
-  !> hold nl%longest + ROW_PAD entries, the stream has ROW_PAD spare bytes
-  integer, parameter :: ROW_CHUNK = 8, ROW_PAD = 2 * ROW_CHUNK
+  !> hold nl%longest + ROW_PAD entries, the stream has STREAM_PAD spare bytes
+  integer, parameter :: ROW_CHUNK = 8, ROW_PAD = 2 * ROW_CHUNK, STREAM_PAD = 4 * ROW_CHUNK
 
   type :: neighbour_list_t
     real(wp) :: radius = 0
@@ -147,7 +147,10 @@ contains
       call sort_index(id, cs%order(cs%cstart(c):cs%cstart(c + 1) - 1))
     end do
     call cell_ranges(cs, nl)
-    if (present(min_width)) nl%width = max(nl%width, min_width)
+    if (present(min_width)) then
+      ! the encodings are 1, 2 and 4 bytes wide
+      if (min_width > nl%width) nl%width = merge(2, 4, min_width <= 2)
+    end if
     ! positions and ownership in canonical order: a cell's candidates are
     ! then contiguous and their distances a vector loop
     allocate(xc(ntot), yc(ntot), zc(ntot), owned(ntot), keep(ntot + 1))
@@ -224,10 +227,10 @@ contains
       end do
       if (pass == 1) then
         if (allocated(nl%bytes)) then
-          if (size(nl%bytes, kind=i8) < nbytes + ROW_PAD .or. &
+          if (size(nl%bytes, kind=i8) < nbytes + STREAM_PAD .or. &
               size(nl%bytes, kind=i8) > nbytes + nbytes / 8 + 64) deallocate(nl%bytes)
         end if
-        if (.not. allocated(nl%bytes)) allocate(nl%bytes(nbytes + ROW_PAD))
+        if (.not. allocated(nl%bytes)) allocate(nl%bytes(nbytes + STREAM_PAD))
       end if
     end do
     nl%start(ntot + 1) = nbytes + 1
@@ -295,121 +298,38 @@ contains
     integer, intent(in) :: kk
     integer, intent(inout) :: jl(:)
     integer, intent(out) :: nn
-    integer(i8) :: p
-    integer :: ca, r, lo, cnt, l
+    integer :: ca
     ca = nl%cell(kk)
-    p = nl%start(kk) + nl%n_ranges(ca) * nl%width
-    nn = 0
     select case (nl%width)
     case (1)
-      call decode_bytes(nl%n_ranges(ca), nl%ranges(:, :, ca), nl%bytes(nl%start(kk):), nl%row, &
-                        kk + 1, jl, nn)
+      call decode_1(nl%n_ranges(ca), nl%ranges(:, :, ca), nl%bytes(nl%start(kk):), nl%row, &
+                    kk + 1, jl, nn)
     case (2)
-      call decode_pairs(nl%n_ranges(ca), nl%ranges(:, :, ca), nl%bytes(nl%start(kk):), nl%row, &
-                        kk + 1, jl, nn)
+      call decode_2(nl%n_ranges(ca), nl%ranges(:, :, ca), nl%bytes(nl%start(kk):), nl%row, &
+                    kk + 1, jl, nn)
     case default
-      do r = 1, nl%n_ranges(ca)
-        lo = nl%ranges(1, r, ca)
-        if (r == 1) lo = kk + 1
-        cnt = get(nl%start(kk) + (r - 1) * nl%width)
-        do l = 1, cnt
-          jl(nn + l) = nl%row(lo + get(p + (l - 1) * nl%width))
-        end do
-        nn = nn + cnt
-        p = p + cnt * nl%width
-      end do
+      call decode_4(nl%n_ranges(ca), nl%ranges(:, :, ca), nl%bytes(nl%start(kk):), nl%row, &
+                    kk + 1, jl, nn)
     end select
-
-  contains
-
-    pure integer function get(pos) result(v)
-      integer(i8), intent(in) :: pos
-      integer :: b
-      v = 0
-      do b = nl%width - 1, 0, -1
-        v = ior(ishft(v, 8), iand(int(nl%bytes(pos + b)), 255))
-      end do
-    end function get
 
   end subroutine neighbour_row
 
-  !> neighbour_row for one-byte offsets, on plain arrays (no descriptor
-  !> loads in the loops): rg the ranges of the row's cell, b the row's
-  !> bytes, first the canonical position after the row's own.
-  !> The offsets are decoded a chunk of ROW_CHUNK at a time, whole chunks:
-  !> a fixed trip count the processor predicts, where the count of each
-  !> range (a few to a few tens) made the loop's exits mispredict.  The
-  !> slots past a range's count are overwritten by the next range or lie
-  !> beyond nn (jl holds ROW_PAD more than the longest row, the stream has
-  !> as many spare bytes), and a gather index past the range is clamped.
-  pure subroutine decode_bytes(nr, rg, b, row, first, jl, nn)
-    integer, intent(in) :: nr, first
-    integer, intent(in) :: rg(3, nr), row(*)
-    integer(int8), intent(in) :: b(*)
-    integer, intent(inout) :: jl(*)
-    integer, intent(out) :: nn
-    integer :: r, lo, hi, cnt, l, c, shift, p
-    nn = 0
-    p = nr
-    do r = 1, nr
-      lo = rg(1, r)
-      if (r == 1) lo = first
-      shift = rg(3, r)
-      cnt = iand(int(b(r)), 255)
-      if (shift /= NOT_CONSECUTIVE) then
-        do c = 0, cnt - 1, ROW_CHUNK
-          do l = 1, ROW_CHUNK
-            jl(nn + c + l) = lo + shift + iand(int(b(p + c + l)), 255)
-          end do
-        end do
-      else
-        hi = rg(2, r)
-        do c = 0, cnt - 1, ROW_CHUNK
-          do l = 1, ROW_CHUNK
-            jl(nn + c + l) = row(min(hi, lo + iand(int(b(p + c + l)), 255)))
-          end do
-        end do
-      end if
-      nn = nn + cnt
-      p = p + cnt
-    end do
-  end subroutine decode_bytes
+  !> neighbour_row for counts and offsets of W bytes (row_decode.inc), on
+  !> plain arrays: no descriptor loads in the loops.
+  pure subroutine decode_1(nr, rg, b, row, first, jl, nn)
+    integer, parameter :: W = 1
+    include 'row_decode.inc'
+  end subroutine decode_1
 
-  !> decode_bytes for two-byte counts and offsets (the lower byte first).
-  pure subroutine decode_pairs(nr, rg, b, row, first, jl, nn)
-    integer, intent(in) :: nr, first
-    integer, intent(in) :: rg(3, nr), row(*)
-    integer(int8), intent(in) :: b(*)
-    integer, intent(inout) :: jl(*)
-    integer, intent(out) :: nn
-    integer :: r, lo, hi, cnt, l, c, shift, p
-    nn = 0
-    p = 2 * nr
-    do r = 1, nr
-      lo = rg(1, r)
-      if (r == 1) lo = first
-      shift = rg(3, r)
-      cnt = iand(int(b(2 * r - 1)), 255) + 256 * iand(int(b(2 * r)), 255)
-      if (shift /= NOT_CONSECUTIVE) then
-        do c = 0, cnt - 1, ROW_CHUNK
-          do l = 1, ROW_CHUNK
-            jl(nn + c + l) = lo + shift + iand(int(b(p + 2 * (c + l) - 1)), 255) &
-                             + 256 * iand(int(b(p + 2 * (c + l))), 255)
-          end do
-        end do
-      else
-        hi = rg(2, r)
-        do c = 0, cnt - 1, ROW_CHUNK
-          do l = 1, ROW_CHUNK
-            jl(nn + c + l) = row(min(hi, lo + iand(int(b(p + 2 * (c + l) - 1)), 255) &
-                                         + 256 * iand(int(b(p + 2 * (c + l))), 255)))
-          end do
-        end do
-      end if
-      nn = nn + cnt
-      p = p + 2 * cnt
-    end do
-  end subroutine decode_pairs
+  pure subroutine decode_2(nr, rg, b, row, first, jl, nn)
+    integer, parameter :: W = 2
+    include 'row_decode.inc'
+  end subroutine decode_2
+
+  pure subroutine decode_4(nr, rg, b, row, first, jl, nn)
+    integer, parameter :: W = 4
+    include 'row_decode.inc'
+  end subroutine decode_4
 
   !> Bins particles 1..ntot on the occupied cells of side `size` aligned on
   !> `origin` (cell_set_t), in O(ntot) expected time plus the sort of the
