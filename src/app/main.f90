@@ -6,6 +6,7 @@ program sph
                     config_write_input_tables
   use parallel_env, only: parallel_env_t, par_start, par_stop
   use simulation, only: simulation_run
+  use memory_usage, only: map_large_arrays
   implicit none
   type(parallel_env_t) :: env
   type(config_t) :: cfg
@@ -14,6 +15,7 @@ program sph
   integer :: k, nargs, len_arg, status
   logical :: ok
 
+  call map_large_arrays()
   env = par_start()
   nargs = command_argument_count()
   allocate(overrides(0))
