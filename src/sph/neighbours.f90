@@ -94,16 +94,10 @@ contains
     integer(i8), intent(in), optional :: id(n)
     type(cell_set_t) :: cs
     real(wp) :: lo(3)
-    integer :: c
     lo = 0
     if (n > 0) lo = minval(x, dim=2)
     if (present(origin)) lo = origin
-    call bin_cells(dim, n, x, cell_size, lo, cs)
-    if (present(id)) then
-      do c = 1, cs%n_cells
-        call sort_index(id, cs%order(cs%cstart(c):cs%cstart(c + 1) - 1))
-      end do
-    end if
+    call bin_cells(dim, n, x, cell_size, lo, cs, id)
     perm = cs%order
   end subroutine cell_sort_permutation
 
@@ -141,11 +135,7 @@ contains
     nl%n = n
     nl%n_rows = ntot
     r2max = radius**2
-    call bin_cells(dim, ntot, x, radius, origin, cs)
-    ! within each cell, by ascending global id
-    do c = 1, cs%n_cells
-      call sort_index(id, cs%order(cs%cstart(c):cs%cstart(c + 1) - 1))
-    end do
+    call bin_cells(dim, ntot, x, radius, origin, cs, id)
     call cell_ranges(cs, nl)
     if (present(min_width)) then
       ! the encodings are 1, 2 and 4 bytes wide
@@ -311,7 +301,6 @@ contains
       call decode_4(nl%n_ranges(ca), nl%ranges(:, :, ca), nl%bytes(nl%start(kk):), nl%row, &
                     kk + 1, jl, nn)
     end select
-
   end subroutine neighbour_row
 
   !> neighbour_row for counts and offsets of W bytes (row_decode.inc), on
@@ -339,12 +328,14 @@ contains
   !>    coordinates to cell; consecutive particles, sorted by cell in memory,
   !>    mostly share a cell and skip the table;
   !> 2. the cells sorted lexicographically (z, y, x);
-  !> 3. the particles counting-sorted by cell (by index within a cell);
+  !> 3. the particles counting-sorted by cell (by index within a cell, or
+  !>    by ascending global id when `id` is given: the canonical order);
   !> 4. for each cell, the stencil cells after it, looked up in the table.
-  subroutine bin_cells(dim, ntot, x, size, origin, cs)
+  subroutine bin_cells(dim, ntot, x, size, origin, cs, id)
     integer, intent(in) :: dim, ntot
     real(wp), intent(in) :: x(3, ntot), size, origin(3)
     type(cell_set_t), intent(out) :: cs
+    integer(i8), intent(in), optional :: id(ntot)
     integer, allocatable :: table(:), first(:), perm(:), rank(:)
     integer(i8), allocatable :: cc(:, :)
     integer(i8) :: ci(3), c_last(3), off(3, 13)
@@ -395,6 +386,11 @@ contains
       cs%cstart(k + 1) = cs%cstart(k)
     end do
     cs%cstart(1) = 1
+    if (present(id)) then
+      do k = 1, m
+        call sort_index(id, cs%order(cs%cstart(k):cs%cstart(k + 1) - 1))
+      end do
+    end if
     ! 4. the stencil offsets after (0, 0, 0) in lexicographic (z, y, x) order
     zr = merge(1, 0, dim == 3)
     cs%n_after = (3**dim - 1) / 2

@@ -145,8 +145,8 @@ contains
 
   !> Work arrays as large as the particle arrays (which migration and the
   !> halo may have grown), each only where an option reads it: one column
-  !> otherwise (at a million particles the standard operators need 4 of the
-  !> 20 reals a particle that every option together needs).
+  !> otherwise (the standard operators need 4 of the 23 reals a particle
+  !> that every option together needs).
   subroutine ensure_capacity(s)
     type(solver_t), intent(inout) :: s
     integer :: cap
