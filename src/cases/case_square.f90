@@ -87,6 +87,7 @@ module case_square
     procedure :: columns => square_columns
     procedure :: sample => square_sample
     procedure :: fields => square_fields
+    procedure :: field => square_field
     procedure :: summary => square_summary
   end type square_patch_t
 
@@ -290,31 +291,50 @@ contains
   !> free-surface indicator (E9: below 0.55 on the free surface).  Attribute time_scaled: t omega
   !> (rotation) or t V0/L (vortical); rotation also p_centre_initial,
   !> kinetic_energy_ref.
-  subroutine square_fields(self, t, parts, flow, f)
+  subroutine square_fields(self, t, f)
     class(square_patch_t), intent(inout) :: self
     real(wp), intent(in) :: t
-    type(particles_t), intent(in) :: parts
-    type(case_flow_t), intent(in) :: flow
     type(case_fields_t), intent(out) :: f
-    integer :: n
-    n = parts%n
     f%scalar_names = [character(len=32) :: 'vorticity', 'vorticity_initial', &
                       'free_surface_lambda']
-    allocate(f%vector_names(0), f%vectors(3, n, 0), f%scalars(n, 3))
-    f%scalars(:, 1) = flow%omega(1:n)
-    f%scalars(:, 3) = flow%lambda(1:n)
+    allocate(f%vector_names(0))
     if (self%kind == SQ_ROTATION) then
-      f%scalars(:, 2) = -2 * self%rate
       f%attr_names = [character(len=32) :: 'time_scaled', 'p_centre_initial', &
                       'kinetic_energy_ref']
       f%attr_values = [t * self%rate, self%p_centre0, self%ke_ref]
     else
-      f%scalars(:, 2) = vortical_vorticity(parts%x0(1, 1:n), parts%x0(2, 1:n), self%side, &
-                                           self%rate)
       f%attr_names = [character(len=32) :: 'time_scaled']
       f%attr_values = [t * self%rate / self%side]
     end if
   end subroutine square_fields
+
+  !> The values of one of the fields square_fields names (none depends on t).
+  subroutine square_field(self, t, name, parts, flow, v, s)
+    class(square_patch_t), intent(inout) :: self
+    real(wp), intent(in) :: t
+    character(len=*), intent(in) :: name
+    type(particles_t), intent(in) :: parts
+    type(case_flow_t), intent(in) :: flow
+    real(wp), allocatable, intent(out) :: v(:, :), s(:)
+    integer :: n
+    n = parts%n
+    select case (name)
+    case ('vorticity')
+      s = flow%omega(1:n)
+    case ('vorticity_initial')
+      if (self%kind == SQ_ROTATION) then
+        allocate(s(n))
+        s = -2 * self%rate
+      else
+        s = vortical_vorticity(parts%x0(1, 1:n), parts%x0(2, 1:n), self%side, self%rate)
+      end if
+    case ('free_surface_lambda')
+      s = flow%lambda(1:n)
+    case default
+      error stop 'square_field: no field ' // name
+    end select
+    if (.false.) v = reshape([t], [1, 1])   ! (the interface's v and t, unused here)
+  end subroutine square_field
 
   !> The closing summary (rank 0 prints; collective).
   subroutine square_summary(self, env, unit, t, parts, kernel)

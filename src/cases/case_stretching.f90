@@ -45,6 +45,7 @@ module case_stretching
     procedure :: columns => stretching_columns
     procedure :: sample => stretching_sample
     procedure :: fields => stretching_fields
+    procedure :: field => stretching_field
     procedure :: summary => stretching_summary
   end type stretching_t
 
@@ -202,28 +203,51 @@ contains
   !> and pressure at each particle's position, the free-surface indicator
   !> `free_surface_lambda` (E9); the exact semi-axes and centre pressure as
   !> attributes.
-  subroutine stretching_fields(self, t, parts, flow, f)
+  subroutine stretching_fields(self, t, f)
     class(stretching_t), intent(inout) :: self
     real(wp), intent(in) :: t
-    type(particles_t), intent(in) :: parts
-    type(case_flow_t), intent(in) :: flow
     type(case_fields_t), intent(out) :: f
-    integer :: i, n
-    n = parts%n
     call ellipse_exact_at(self%ex, t)
     f%vector_names = [character(len=32) :: 'position_exact', 'velocity_exact']
     f%scalar_names = [character(len=32) :: 'pressure_exact', 'free_surface_lambda']
-    allocate(f%vectors(3, n, 2), f%scalars(n, 2))
-    do i = 1, n
-      f%vectors(:, i, 1) = ellipse_map(self%ex, parts%x0(:, i))
-      f%vectors(:, i, 2) = ellipse_velocity(self%ex, parts%x(:, i))
-      f%scalars(i, 1) = ellipse_pressure(self%ex, parts%x(:, i))
-    end do
-    f%scalars(:, 2) = flow%lambda(1:n)
     f%attr_names = [character(len=32) :: 'semi_axes_exact_1', 'semi_axes_exact_2', &
                     'semi_axes_exact_3', 'p_centre_exact']
     f%attr_values = [self%ex%a, ellipse_centre_pressure(self%ex)]
   end subroutine stretching_fields
+
+  !> The values of one of the fields stretching_fields names.
+  subroutine stretching_field(self, t, name, parts, flow, v, s)
+    class(stretching_t), intent(inout) :: self
+    real(wp), intent(in) :: t
+    character(len=*), intent(in) :: name
+    type(particles_t), intent(in) :: parts
+    type(case_flow_t), intent(in) :: flow
+    real(wp), allocatable, intent(out) :: v(:, :), s(:)
+    integer :: i, n
+    n = parts%n
+    call ellipse_exact_at(self%ex, t)
+    select case (name)
+    case ('position_exact')
+      allocate(v(3, n))
+      do i = 1, n
+        v(:, i) = ellipse_map(self%ex, parts%x0(:, i))
+      end do
+    case ('velocity_exact')
+      allocate(v(3, n))
+      do i = 1, n
+        v(:, i) = ellipse_velocity(self%ex, parts%x(:, i))
+      end do
+    case ('pressure_exact')
+      allocate(s(n))
+      do i = 1, n
+        s(i) = ellipse_pressure(self%ex, parts%x(:, i))
+      end do
+    case ('free_surface_lambda')
+      s = flow%lambda(1:n)
+    case default
+      error stop 'stretching_field: no field ' // name
+    end select
+  end subroutine stretching_field
 
   !> The closing summary of errors against the exact solution (rank 0 prints).
   subroutine stretching_summary(self, env, unit, t, parts, kernel)

@@ -16,8 +16,8 @@ contains
   !> (vectors with their 3 rows: the snapshot keeps the first dim), as
   !> views of the particles' arrays (parts must be a target in the caller
   !> and stay unchanged until the write), then `extra`, whose arrays are
-  !> moved, not copied.  A checkpoint holds the registered checkpoint fields
-  !> too.
+  !> moved, not copied (or which are computed as they are written).  A
+  !> checkpoint holds the registered checkpoint fields too.
   subroutine particles_snapshot_fields(parts, extra, fields, checkpoint)
     type(particles_t), intent(in), target :: parts
     type(snapshot_field_t), intent(inout) :: extra(:)
@@ -59,6 +59,7 @@ contains
       if (allocated(extra(j)%s)) call move_alloc(extra(j)%s, fields(m + j)%s)
       if (allocated(extra(j)%v)) call move_alloc(extra(j)%v, fields(m + j)%v)
       if (allocated(extra(j)%i)) call move_alloc(extra(j)%i, fields(m + j)%i)
+      fields(m + j)%computed = extra(j)%computed
     end do
   end subroutine particles_snapshot_fields
 

@@ -12,8 +12,9 @@
 !> renamed when complete (fileutil), so a reader never sees a partial file.
 !> All procedures here are collective over the communicator they are given
 !> and return the same ok and errmsg on every rank.  Argument errors are
-!> agreed on before the first HDF5 call; an HDF5 failure is assumed to hit
-!> every rank alike (as file creation, space and permission errors do).
+!> agreed on before the first HDF5 call (a computed field's shape, known
+!> only once it is made, before it is written); an HDF5 failure is assumed
+!> to hit every rank alike (as file creation, space and permission errors do).
 !>
 !> Besides the fields, each snapshot holds `connectivity` (0 .. N-1), the
 !> vertex list of the XDMF Polyvertex topology: without it ParaView's Xdmf3
@@ -45,7 +46,7 @@ module snapshot_io
                       file_exists, text_buffer_t, text_append, write_file_atomic
   implicit none
   private
-  public :: snapshot_field_t, snapshot_t, xdmf_index_t
+  public :: snapshot_field_t, snapshot_source_t, snapshot_t, xdmf_index_t
   public :: snapshot_write, snapshot_read, snapshot_filename
   public :: snapshot_find_field, snapshot_find_attribute, snapshot_get_field
   public :: xdmf_init, xdmf_add, xdmf_write
@@ -57,7 +58,10 @@ module snapshot_io
   !> A named field: real scalar s(n), real vector v(dim, n) or int64 i(n);
   !> exactly one is allocated, or instead exactly one of the views s_view,
   !> v_view, i_view points to data the caller keeps alive while it writes
-  !> (the particles' own arrays, written without a copy).  Arrays may be
+  !> (the particles' own arrays, written without a copy), or instead
+  !> `computed` is 's' or 'v' and the writer has the values made by a
+  !> snapshot_source_t just before it writes them, and frees them after:
+  !> however many such fields, one is held at a time.  Arrays may be
   !> longer than the local count (capacity, halo): only the first n_local
   !> entries are written.
   type :: snapshot_field_t
@@ -68,7 +72,26 @@ module snapshot_io
     real(wp), pointer, contiguous :: s_view(:) => null()
     real(wp), pointer, contiguous :: v_view(:, :) => null()
     integer(i8), pointer, contiguous :: i_view(:) => null()
+    character(len=1) :: computed = ' '
   end type snapshot_field_t
+
+  !> What makes the computed fields of a snapshot (snapshot_write's
+  !> `source`), e.g. a case's exact solution at the particles.
+  type, abstract :: snapshot_source_t
+  contains
+    procedure(source_fill_i), deferred :: fill
+  end type snapshot_source_t
+
+  abstract interface
+    !> Allocates field%s (field%computed = 's') or field%v ('v', dim or
+    !> more rows) with at least n_local entries: the values of the field
+    !> named field%name.
+    subroutine source_fill_i(self, field)
+      import :: snapshot_source_t, snapshot_field_t
+      class(snapshot_source_t), intent(inout) :: self
+      type(snapshot_field_t), intent(inout) :: field
+    end subroutine source_fill_i
+  end interface
 
   !> A snapshot as read back: this rank's contiguous block of rows
   !> offset+1 .. offset+n_local of the file's N = n_global rows.
@@ -138,8 +161,9 @@ contains
   !> attr_names/attr_values add real root attributes.  If `index` is given,
   !> the snapshot is added to it and the index file is rewritten (the
   !> snapshot's name in the index is relative to the index's directory).
+  !> `source` makes the computed fields, in the order of `fields`.
   subroutine snapshot_write(comm, filename, time, step, dim, case_name, n_local, fields, &
-                            ok, errmsg, attr_names, attr_values, index)
+                            ok, errmsg, attr_names, attr_values, index, source)
     type(MPI_Comm), intent(in) :: comm
     character(len=*), intent(in) :: filename, case_name
     real(wp), intent(in) :: time
@@ -150,6 +174,7 @@ contains
     character(len=*), intent(in), optional :: attr_names(:)
     real(wp), intent(in), optional :: attr_values(:)
     type(xdmf_index_t), intent(inout), optional :: index
+    class(snapshot_source_t), intent(inout), optional :: source
 
     integer(i8) :: n8, offset, n_global
     integer(hid_t) :: file_id, dxpl
@@ -190,6 +215,10 @@ contains
       if (.not. open_parallel(tmp, .true., comm, file_id, dxpl, errmsg)) exit io
 
       do k = 1, nfields
+        if (fields(k)%computed /= ' ') then
+          if (.not. write_computed(fields(k))) exit io
+          cycle
+        end if
         associate (f => fields(k))
           select case (kind_of(f))
           case ('i')
@@ -258,6 +287,32 @@ contains
 
   contains
 
+    !> A computed field: made by `source`, its shape agreed on by the ranks
+    !> (it is only known now), written, and freed on return.
+    logical function write_computed(declared) result(good)
+      type(snapshot_field_t), intent(in) :: declared
+      type(snapshot_field_t), target :: made
+      made%name = declared%name
+      made%computed = declared%computed
+      call source%fill(made)
+      if (made%computed == 's') then
+        good = allocated(made%s) .and. .not. allocated(made%v)
+        if (good) good = size(made%s) >= n_local
+      else
+        good = allocated(made%v) .and. .not. allocated(made%s)
+        if (good) good = size(made%v, 1) >= dim .and. size(made%v, 2) >= n_local
+      end if
+      if (.not. good) errmsg = 'snapshot_write: the source made field "' // made%name // &
+                               '" of another kind or shape than declared'
+      call agree_ok(comm, good, errmsg)
+      if (.not. good) return
+      if (made%computed == 's') then
+        good = write_real(file_id, dxpl, made%name, made%s, 1, 1)
+      else
+        good = write_real(file_id, dxpl, made%name, made%v, size(made%v, 1), dim)
+      end if
+    end function write_computed
+
     !> `connectivity`: the row numbers 0 .. N-1, the vertex list of the
     !> XDMF Polyvertex topology (int32 unless N needs int64).
     logical function write_connectivity()
@@ -325,9 +380,19 @@ contains
           msg = 'snapshot_write: field "connectivity" is made by the writer'
         else if (count([allocated(fields(j)%s), allocated(fields(j)%v), &
                         allocated(fields(j)%i), associated(fields(j)%s_view), &
-                        associated(fields(j)%v_view), associated(fields(j)%i_view)]) /= 1) then
+                        associated(fields(j)%v_view), associated(fields(j)%i_view), &
+                        fields(j)%computed /= ' ']) /= 1) then
           msg = 'snapshot_write: field "' // fields(j)%name // &
-                '" needs exactly one of s (scalar), v (vector) and i (int64), or of their views'
+                '" needs exactly one of s (scalar), v (vector) and i (int64), or of their ' // &
+                'views, or to be computed'
+        else if (fields(j)%computed /= ' ') then
+          if (fields(j)%computed /= 's' .and. fields(j)%computed /= 'v') then
+            msg = 'snapshot_write: field "' // fields(j)%name // &
+                  '" can only be computed as s (scalar) or v (vector)'
+          else if (.not. present(source)) then
+            msg = 'snapshot_write: field "' // fields(j)%name // &
+                  '" is computed but there is no source'
+          end if
         else if (kind_of(fields(j)) == 's') then
           if (size(field_s(fields(j))) < n_local) &
             msg = 'snapshot_write: field "' // fields(j)%name // '" is shorter than n_local'
@@ -831,6 +896,7 @@ contains
     kind_of = 'v'
     if (allocated(field%s) .or. associated(field%s_view)) kind_of = 's'
     if (allocated(field%i) .or. associated(field%i_view)) kind_of = 'i'
+    if (field%computed /= ' ') kind_of = field%computed
   end function kind_of
 
   !> A field's data, its own array or its view.
