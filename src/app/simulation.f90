@@ -316,6 +316,7 @@ contains
     s%rhs%divergence = merge(DIV_RENORMALISED, DIV_STANDARD, &
                              cfg%numerics%divergence == 'renormalised')
     s%shifting = cfg%numerics%shifting
+    s%rhs%binned = cfg%numerics%binned_sums
     s%renormalise_per_step = cfg%numerics%renormalise == 'step'
     s%shift_dx = dx
     s%rhs%viscosity = code_of(cfg%numerics%viscosity, VISCOSITIES, &

@@ -107,7 +107,7 @@ contains
     integer, intent(in) :: share(2)
     type(poisson_square_t) :: ps
     real(wp), allocatable :: f(:, :), xn(:), g(:)
-    real(wp) :: x, y, p
+    real(wp) :: x, y, p, xr(2)
     integer :: i, j, id, ng
     self%dim = 2
     self%rho0 = physics%rho0
@@ -151,8 +151,9 @@ contains
     do j = 1, ns
       do i = 1, ns
         id = i + (j - 1) * ns
-        x = -0.5_wp * l + (i - 0.5_wp) * dx
-        y = -0.5_wp * l + (j - 0.5_wp) * dx
+        ! centred on the origin, so that -x and -y are lattice points exactly
+        x = (i - 0.5_wp * (ns + 1)) * dx
+        y = (j - 0.5_wp * (ns + 1)) * dx
         parts%x(:, id) = [x, y, 0.0_wp]
         parts%x0(:, id) = parts%x(:, id)
         if (self%kind == SQ_ROTATION) then
@@ -162,7 +163,10 @@ contains
           parts%u(:, id) = vortical_velocity(x, y, l, rate)
           self%partner(id) = (ns + 1 - j) + (ns - i) * ns
         end if
-        p = poisson_square_eval(ps, x, y)
+        ! the same value on every point of an orbit of S (p is symmetric
+        ! but its series, summed at different points, not to the last bit)
+        xr = orbit_representative(self%sym, [x, y])
+        p = poisson_square_eval(ps, xr(1), xr(2))
         parts%p(id) = p
         parts%rho(id) = eos_density(eos, p)
         parts%m(id) = parts%rho(id) * dx**2
@@ -181,6 +185,20 @@ contains
     ! particles): the share is kept afterwards
     call keep_share(parts, share)
   end subroutine square_setup
+
+  !> The point of the orbit {x, S x, S^2 x, ...} of x under the symmetry S
+  !> (entries 0 and +-1: exact) that is largest in (x, then y).
+  pure function orbit_representative(sym, x) result(r)
+    real(wp), intent(in) :: sym(2, 2), x(2)
+    real(wp) :: r(2), y(2)
+    integer :: k
+    r = x
+    y = x
+    do k = 1, 3
+      y = [sym(1, 1) * y(1) + sym(1, 2) * y(2), sym(2, 1) * y(1) + sym(2, 2) * y(2)]
+      if (y(1) > r(1) .or. (.not. y(1) < r(1) .and. y(2) > r(2))) r = y
+    end do
+  end function orbit_representative
 
   !> f'(s) for f(s) = exp(-(4 s/L)^2).
   elemental function dfdx(s, l) result(d)

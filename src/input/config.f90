@@ -730,6 +730,22 @@ contains
       return
     end if
 
+    ! (B1) binned sums exist in the main pair loop and the shifting pass,
+    ! not in the first pass of the renormalised operators
+    if (c%numerics%binned_sums .and. (c%numerics%pressure_gradient /= 'standard' .or. &
+        c%numerics%divergence /= 'standard' .or. c%numerics%diffusion == 'antuono' .or. &
+        c%numerics%visc_reconstruction)) then
+      call origin_of(origins, path, 'numerics.binned_sums', origin, line)
+      call fail(err, origin, '&numerics binned_sums = .true. needs the standard operators ' // &
+                '(here pressure_gradient = ''' // trim(c%numerics%pressure_gradient) // &
+                ''', divergence = ''' // trim(c%numerics%divergence) // ''', diffusion = ''' // &
+                trim(c%numerics%diffusion) // ''', visc_reconstruction = ' // &
+                merge('.true. ', '.false.', c%numerics%visc_reconstruction) // ')', line, &
+                ': allowed with pressure_gradient = ''standard'', divergence = ''standard'', ' // &
+                'a diffusion other than ''antuono'' and visc_reconstruction = .false.')
+      return
+    end if
+
     ! Weak compressibility: the Mach number must stay small.
     speed = 0
     formula = '0'

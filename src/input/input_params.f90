@@ -238,6 +238,15 @@ module input_params
               'rotating square in one piece without the tensile control (on in ' // &
               '`input/square_rotation.nml`); breaks the Lagrangian map (circle2d''s ' // &
               'position error doubles): off by default'), &
+    var_t(G_NUMERICS, 'binned_sums', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
+          CH_NONE, '', 'pair sums independent of the partners'' order: symmetric ' // &
+          'cases stay exactly symmetric', &
+          doc='each pair term is rounded onto two fixed grids and summed exactly ' // &
+              '([doc/theory.md](theory.md) B1), so that a particle''s sums do not depend ' // &
+              'on the order of its partners: the square patches, symmetric under a ' // &
+              'rotation or a mirror, then stay symmetric to the last bit. The ' // &
+              'standard operators only (with shifting, the tensile control and either ' // &
+              'viscosity); the general, scalar pair loop: several times slower'), &
     var_t(G_OUTPUT, 'dir', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
           'a non-empty path of at most 255 characters', 'run directory'), &
     var_t(G_OUTPUT, 'dt', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
@@ -340,6 +349,7 @@ module input_params
     character(len=NAME_LEN) :: renormalise = 'stage'     !< first pass every stage, or step
     character(len=NAME_LEN) :: divergence = 'standard'   !< (E1), or renormalised (E3)
     logical :: shifting = .false.                        !< (E8) particle shifting
+    logical :: binned_sums = .false.                     !< (B1) order-independent sums
   contains
     procedure, pass(p) :: read_group => read_numerics
     procedure :: value_text => numerics_value_text
@@ -495,12 +505,12 @@ contains
     character(len=NAME_LEN) :: pressure_gradient, divergence, renormalise
     real(wp) :: cfl, cfl_force, cfl_visc, alpha, alpha_exponent, delta, delta_exponent, skin
     real(wp) :: tensile_eps
-    logical :: tensile, shifting, visc_reconstruction
+    logical :: tensile, shifting, visc_reconstruction, binned_sums
     integer :: tensile_n
     namelist /numerics/ kernel, integrator, cfl, cfl_force, cfl_visc, viscosity, alpha, &
                         alpha_exponent, diffusion, delta, delta_exponent, skin, tensile, &
                         tensile_eps, tensile_n, pressure_gradient, divergence, shifting, &
-                        renormalise, visc_reconstruction
+                        renormalise, visc_reconstruction, binned_sums
     kernel = p%kernel
     integrator = p%integrator
     cfl = p%cfl
@@ -521,6 +531,7 @@ contains
     divergence = p%divergence
     shifting = p%shifting
     renormalise = p%renormalise
+    binned_sums = p%binned_sums
     read(text, nml=numerics, iostat=ios, iomsg=iomsg)
     if (ios /= 0) return
     p%kernel = kernel
@@ -543,6 +554,7 @@ contains
     p%divergence = divergence
     p%shifting = shifting
     p%renormalise = renormalise
+    p%binned_sums = binned_sums
   end subroutine read_numerics
 
   subroutine read_output(text, p, ios, iomsg)
@@ -679,6 +691,8 @@ contains
       text = real_str(p%alpha_exponent)
     case ('visc_reconstruction')
       text = logical_text(p%visc_reconstruction)
+    case ('binned_sums')
+      text = logical_text(p%binned_sums)
     case ('diffusion')
       text = quoted(p%diffusion)
     case ('delta')

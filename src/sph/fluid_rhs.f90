@@ -105,6 +105,11 @@ module fluid_rhs
     !> run the pair loop with its branches (rows_general) even where a
     !> vectorised copy exists: the reference the tests compare them with
     logical :: generic_loop = .false.
+    !> (B1) binned sums: every pair term rounded onto fixed grids and summed
+    !> exactly, so that a particle's sums do not depend on the order of its
+    !> partners (symmetric cases stay symmetric); the general loop only,
+    !> with the standard operators (no first pass)
+    logical :: binned = .false.
   end type rhs_params_t
 
   !> The constants of the pair loop (pair_rows.inc), from rhs_params_t.
@@ -116,6 +121,8 @@ module fluid_rhs
     real(wp) :: diff = 0        !< (E2) delta h c0
     real(wp) :: inv_wdx = 0     !< (E7) 1/W(dx)
     integer :: tensile_n = 4    !< (E7) n
+    !> (B1) the anchors of the two bins of drho, du_x, du_y, du_z
+    real(wp) :: bin1(4) = 0, bin2(4) = 0
   end type pair_coefs_t
 
   !> Work arrays of the passes, kept between calls (the solver holds one)
@@ -681,8 +688,11 @@ contains
     if (present(work)) w => work
     nrec_need = merge(REC_LONG, REC_SHORT, renorm .or. tensile)
     if (recon) nrec_need = REC_RECON
-    call rhs_work_reserve(w, ntot, nl, nrec_need, sum_rows=4)
-    acc => sums_view(w, 4, ntot)
+    if (prm%binned .and. (renorm .or. antuono .or. recon)) &
+      error stop 'rhs_evaluate: binned sums only with the standard operators'
+    ! (B1) binned: the high bins in acc(:, 1:ntot), the low in acc(:, ntot + 1:)
+    call rhs_work_reserve(w, ntot, nl, nrec_need, sum_rows=merge(8, 4, prm%binned))
+    acc => sums_view(w, 4, merge(2 * ntot, ntot, prm%binned))
     ! per particle: u, rho, p, V = m/rho and 1/rho (no division in the
     ! pair loop), and what the options need
     associate(rec => w%rec)
@@ -720,6 +730,9 @@ contains
     end associate
     acc = 0
     c = pair_coefs_t(s2, eta2, coef_visc, coef_mon, diff_coef, inv_wdx, prm%tensile_n)
+    ! (B1) the scales of drho and du: rho0 c0/h and c0^2/h
+    call bin_anchors(prm%rho0 * prm%c0 / h, c%bin1(1), c%bin2(1))
+    call bin_anchors(prm%c0**2 / h, c%bin1(2:4), c%bin2(2:4))
     ! the common configurations have their own vectorised copies of the loop
     ! (the planar twins in 2D, where the z components are zero)
     planar = prm%dim == 2
@@ -729,20 +742,26 @@ contains
         .and. delta_visc) vec = LOOP_RENORMALISED
     if (renorm_div .and. adjoint .and. antuono .and. recon .and. .not. tensile &
         .and. delta_visc) vec = LOOP_ADJOINT
-    if (prm%generic_loop) vec = 0
+    if (prm%generic_loop .or. prm%binned) vec = 0
     associate(r => w%rb, nr => size(w%jl), nrec => size(w%rec, 1))
     if (vec /= 0) then
       call rows_vectorised(vec, planar, prm%kernel, c, ntot, x, grad_rho, nl, nrec, w%rec, nr, &
                            w%jl, r, acc)
     else
       call rows_general(renorm_div, corrected, antuono, tensile, delta_visc, monaghan_visc, &
-                        recon, adjoint, prm%kernel, c, ntot, x, grad_rho, nl, nrec, w%rec, nr, &
+                        recon, adjoint, prm%binned, prm%kernel, c, ntot, x, grad_rho, nl, &
+                        nrec, w%rec, nr, &
                         w%jl, r(:, 1), r(:, 2), r(:, 3), r(:, 4), r(:, 5), r(:, 6), r(:, 7), &
                         r(:, 8), r(:, 9), r(:, 10), acc)
     end if
     end associate
-    drho(1:n) = acc(1, 1:n)
-    du(:, 1:n) = acc(2:4, 1:n)
+    if (prm%binned) then
+      drho(1:n) = acc(1, 1:n) + acc(1, ntot + 1:ntot + n)
+      du(:, 1:n) = acc(2:4, 1:n) + acc(2:4, ntot + 1:ntot + n)
+    else
+      drho(1:n) = acc(1, 1:n)
+      du(:, 1:n) = acc(2:4, 1:n)
+    end if
     ! halo slots hold partial sums: their owners compute the real values
     drho(n + 1:ntot) = 0
     du(:, n + 1:ntot) = 0
@@ -751,10 +770,10 @@ contains
   !> The rows of the list for rhs_evaluate (the loop: pair_rows.inc), with
   !> the options as arguments: any combination, branches in the loop.
   subroutine rows_general(renorm_div, corrected, antuono, tensile, delta_visc, monaghan_visc, &
-                          recon, adjoint, kernel, c, ntot, x, grad_rho, nl, nrec, rec, nr, jl, &
-                          dx, dy, dz, r2l, fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
+                          recon, adjoint, binned, kernel, c, ntot, x, grad_rho, nl, nrec, rec, &
+                          nr, jl, dx, dy, dz, r2l, fl, wl, tj_r, tj_x, tj_y, tj_z, acc)
     logical, intent(in) :: renorm_div, corrected, antuono, tensile, delta_visc, monaghan_visc, &
-                           recon, adjoint
+                           recon, adjoint, binned
     logical, parameter :: planar = .false.
     include 'pair_rows.inc'
   end subroutine rows_general
@@ -766,6 +785,7 @@ contains
     logical, parameter :: renorm_div = .false., corrected = .false., antuono = .false., &
                           tensile = .false., delta_visc = .true., monaghan_visc = .false., &
                           recon = .false., adjoint = .false., planar = .false.
+    logical, parameter :: binned = .false.
     include 'pair_rows.inc'
   end subroutine rows_standard
 
@@ -775,6 +795,7 @@ contains
     logical, parameter :: renorm_div = .false., corrected = .false., antuono = .false., &
                           tensile = .false., delta_visc = .true., monaghan_visc = .false., &
                           recon = .false., adjoint = .false., planar = .true.
+    logical, parameter :: binned = .false.
     include 'pair_rows.inc'
   end subroutine rows_standard_2d
 
@@ -785,6 +806,7 @@ contains
     logical, parameter :: renorm_div = .true., corrected = .true., antuono = .false., &
                           tensile = .false., delta_visc = .true., monaghan_visc = .false., &
                           recon = .false., adjoint = .false., planar = .false.
+    logical, parameter :: binned = .false.
     include 'pair_rows.inc'
   end subroutine rows_renormalised
 
@@ -794,6 +816,7 @@ contains
     logical, parameter :: renorm_div = .true., corrected = .true., antuono = .false., &
                           tensile = .false., delta_visc = .true., monaghan_visc = .false., &
                           recon = .false., adjoint = .false., planar = .true.
+    logical, parameter :: binned = .false.
     include 'pair_rows.inc'
   end subroutine rows_renormalised_2d
 
@@ -805,6 +828,7 @@ contains
     logical, parameter :: renorm_div = .true., corrected = .false., antuono = .true., &
                           tensile = .false., delta_visc = .true., monaghan_visc = .false., &
                           recon = .true., adjoint = .true., planar = .false.
+    logical, parameter :: binned = .false.
     include 'pair_rows.inc'
   end subroutine rows_adjoint
 
@@ -814,6 +838,7 @@ contains
     logical, parameter :: renorm_div = .true., corrected = .false., antuono = .true., &
                           tensile = .false., delta_visc = .true., monaghan_visc = .false., &
                           recon = .true., adjoint = .true., planar = .true.
+    logical, parameter :: binned = .false.
     include 'pair_rows.inc'
   end subroutine rows_adjoint_2d
 
@@ -859,6 +884,33 @@ contains
       error stop 'rows_vectorised: no such copy of the pair loop'
     end select
   end subroutine rows_vectorised
+
+  !> (B1) The anchors m1, m2 of the two bins of a sum whose terms and
+  !> total stay well below 2^30 q: m1 = 1.5 2^e with 2^e the power of two
+  !> just above 2^30 q, m2 = m1 2^-40.  The first bin's grid is then
+  !> about 2^-22 q, the second's 2^-62 q.
+  elemental subroutine bin_anchors(q, m1, m2)
+    real(wp), intent(in) :: q
+    real(wp), intent(out) :: m1, m2
+    m1 = scale(1.5_wp, exponent(q) + 30)
+    m2 = scale(m1, -40)
+  end subroutine bin_anchors
+
+  !> (B1) Adds t to the binned sum (hi, lo) of anchors m1, m2: t rounded
+  !> to the grid of m1 (whose spacing is ulp(m1)) goes to hi, the rest
+  !> rounded to the grid of m2 to lo.  Both bins add multiples of their
+  !> grid far below 2^53 of them, so they add exactly, in any order.  The
+  !> rounding is an odd function (a tie goes to the even neighbour, even
+  !> on both sides of the anchor): -t adds exactly the opposite of t.
+  elemental subroutine bin_add(hi, lo, t, m1, m2)
+    real(wp), intent(inout) :: hi, lo
+    real(wp), intent(in) :: t, m1, m2
+    real(wp) :: a, r
+    a = (t + m1) - m1
+    r = t - a
+    hi = hi + a
+    lo = lo + ((r + m2) - m2)
+  end subroutine bin_add
 
   !> The total of LANES partial sums, added pairwise in a fixed order.
   pure real(wp) function lane_total(acc) result(total)
@@ -963,18 +1015,21 @@ contains
     real(wp) :: xij(3), g(3), xx(6), mi(6), s0i(3), s1i(3), wgt, inv_wdx, s2, vi, vj
     real(wp) :: inv(3, 3), det, nu(3), nn_(3), a
     integer :: i, j, l, nn, nb, kk
+    real(wp) :: m1(12), m2(12)
     w => own
     if (present(work)) w => work
-    call rhs_work_reserve(w, ntot, nl, REC_SHORT, sum_rows=12)
-    acc => sums_view(w, 12, ntot)
+    call rhs_work_reserve(w, ntot, nl, REC_SHORT, sum_rows=merge(24, 12, prm%binned))
+    acc => sums_view(w, 12, merge(2 * ntot, ntot, prm%binned))
     ! the work arrays: M in sums(1:6), the sum of g V in sums(7:9), the
-    ! weighted sum in sums(10:12), V in rec(R_VOL); the row in jl and rb
+    ! weighted sum in sums(10:12), V in rec(R_VOL); the row in jl and rb;
+    ! binned (B1), the low bins in columns ntot + 1:2 ntot, the scales 1
+    ! (M) and 1/h (the sums of g V)
+    call bin_anchors(1.0_wp, m1(1:6), m2(1:6))
+    call bin_anchors(1 / prm%kernel%h, m1(7:12), m2(7:12))
     associate(mm => acc(1:6, :), s0 => acc(7:9, :), s1 => acc(10:12, :), &
               vol => w%rec(R_VOL, :), jl => w%jl, xd => w%rb(:, 1), yd => w%rb(:, 2), &
               zd => w%rb(:, 3), r2l => w%rb(:, 4), fl => w%rb(:, 5), wl => w%rb(:, 6))
-    mm(:, 1:ntot) = 0
-    s0(:, 1:ntot) = 0
-    s1(:, 1:ntot) = 0
+    acc = 0
     vol(1:ntot) = m(1:ntot) / rho(1:ntot)
     s2 = prm%kernel%support**2
     inv_wdx = 1 / kernel_w(prm%kernel, dx)
@@ -993,12 +1048,17 @@ contains
         g = fl(l) * xij
         vj = vol(j)
         wgt = 1 + SHIFT_R * (wl(l) * inv_wdx)**SHIFT_N
+        xx = moment_term(fl(l), xij)
+        if (prm%binned) then
+          call bin_add(acc(:, i), acc(:, ntot + i), [vj * xx, vj * g, (wgt * vj) * g], m1, m2)
+          call bin_add(acc(:, j), acc(:, ntot + j), [vi * xx, -vi * g, -(wgt * vi) * g], m1, m2)
+          cycle
+        end if
         ! g V_j for i, -g V_i for j (grad_j W_ji = -g)
         s0i = s0i + vj * g
         s0(:, j) = s0(:, j) - vi * g
         s1i = s1i + (wgt * vj) * g
         s1(:, j) = s1(:, j) - (wgt * vi) * g
-        xx = moment_term(fl(l), xij)
         mi = mi + vj * xx
         mm(:, j) = mm(:, j) + vi * xx
       end do
@@ -1006,6 +1066,7 @@ contains
       s0(:, i) = s0(:, i) + s0i
       s1(:, i) = s1(:, i) + s1i
     end do
+    if (prm%binned) acc(:, 1:n) = acc(:, 1:n) + acc(:, ntot + 1:ntot + n)
     dr = 0
     lambda = 0
     do i = 1, n
@@ -1017,7 +1078,9 @@ contains
       ! LAMBDA_SURFACE > LAMBDA_MIN, so M_i is invertible)
       call invert_sym(prm%dim, mm(:, i), inv, det)
       nu = matmul(inv, s0(:, i))
-      a = norm2(nu)
+      ! (x^2 + y^2) + z^2 rather than norm2, whose scaled sum is not
+      ! symmetric in x and y (B1)
+      a = sqrt(nu(1)**2 + nu(2)**2 + nu(3)**2)
       if (.not. a > 0) cycle
       nn_ = -nu / a
       dr(:, i) = dr(:, i) - sum(dr(:, i) * nn_) * nn_
