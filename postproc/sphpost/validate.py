@@ -44,7 +44,8 @@ STANDARD = ["numerics.divergence=standard", "numerics.pressure_gradient=standard
 # with shifting, and the paper's standard SPH with the tensile control
 FIG4_N = 10000
 FIG4 = [("input file: standard gradient, shifting", []),
-        ("higher-order gradient, shifting", ["numerics.pressure_gradient=higher_order"]),
+        ("higher-order gradient, shifting", ["numerics.pressure_gradient=higher_order",
+                                             "numerics.binned_sums=.false."]),
         ("paper's: standard gradient, tensile control",
          ["numerics.shifting=.false.", "numerics.tensile=.true."])]
 ELLIPSOID_N = [10000, 40000]
