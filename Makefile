@@ -76,12 +76,6 @@ $(BUILD)/%.o: %.F90 | $(BUILD)
 $(BUILD):
 	mkdir -p $@
 
-# The pair terms add products of x and y components: a multiply-add fused
-# one way for a particle and the other way for its mirror image rounds
-# differently, so the binned sums (doc/theory.md B1) keep a symmetric case
-# symmetric only when none is fused.
-$(BUILD)/fluid_rhs.o: FFLAGS += -ffp-contract=off
-
 # Module dependencies: "use foo" in any source makes its object depend on
 # $(BUILD)/foo.o when foo is one of ours (for a .pf file: the objects of
 # both unit-test builds below); "include 'bar.inc'" (or the preprocessor's

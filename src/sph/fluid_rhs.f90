@@ -288,7 +288,7 @@ contains
       if (planar) then
         call in_range_2d(kk, i, x, s2, nl, nn, nb, jl, dx, dy, r2l)
       else
-        call in_range_soa(kk, i, x, s2, nl, nn, nb, jl, dx, dy, dz, r2l)
+        call in_range_soa(kk, i, x, s2, nl, nn, nb, jl, dx, dy, dz, r2l, .false.)
       end if
       call kernel_f_list(kernel, nb, r2l, fl)
       vi = rec(R_VOL, i)
@@ -924,9 +924,12 @@ contains
   !> saves the pair work.  The row is padded up to nb, a multiple of LANES,
   !> with partners that give exact zeros (j = i at r^2 = s2, where F = W =
   !> 0), so that the vectorised loops run on whole vectors.
-  pure subroutine in_range_soa(kk, i, x, s2, nl, nn, nb, jl, dx, dy, dz, r2l)
+  pure subroutine in_range_soa(kk, i, x, s2, nl, nn, nb, jl, dx, dy, dz, r2l, symmetric)
     integer, intent(in) :: kk, i
     real(wp), intent(in) :: x(:, :), s2
+    !> r^2 as (dx^2 + dy^2) + dz^2, each square rounded: the same bits for
+    !> a pair and its image under a rotation or mirror (B1)
+    logical, intent(in) :: symmetric
     type(neighbour_list_t), intent(in) :: nl
     integer, intent(out) :: nn, nb
     integer, intent(inout) :: jl(:)
@@ -942,7 +945,11 @@ contains
     do l = 1, nt
       j = jl(l)
       d = xi - x(:, j)
-      r2 = d(1)**2 + d(2)**2 + d(3)**2
+      if (symmetric) then
+        r2 = (d(1)**2) + (d(2)**2) + (d(3)**2)
+      else
+        r2 = d(1)**2 + d(2)**2 + d(3)**2
+      end if
       jl(nn + 1) = j
       dx(nn + 1) = d(1)
       dy(nn + 1) = d(2)
@@ -1035,7 +1042,7 @@ contains
     inv_wdx = 1 / kernel_w(prm%kernel, dx)
     do kk = 1, nl%n_rows
       i = nl%row(kk)
-      call in_range_soa(kk, i, x, s2, nl, nn, nb, jl, xd, yd, zd, r2l)
+      call in_range_soa(kk, i, x, s2, nl, nn, nb, jl, xd, yd, zd, r2l, prm%binned)
       call kernel_f_list(prm%kernel, nn, r2l, fl)
       call kernel_w_list(prm%kernel, nn, r2l, wl)
       vi = vol(i)
@@ -1077,10 +1084,20 @@ contains
       ! near the free surface: no motion along the normal (lambda_i >=
       ! LAMBDA_SURFACE > LAMBDA_MIN, so M_i is invertible)
       call invert_sym(prm%dim, mm(:, i), inv, det)
+      if (prm%binned) then
+        ! (B1) the products rounded before each sum, and no norm2 (its
+        ! scaled sum is not symmetric in x and y): the same bits for a
+        ! particle and its image
+        nu = (inv(:, 1) * s0(1, i)) + (inv(:, 2) * s0(2, i)) + (inv(:, 3) * s0(3, i))
+        a = sqrt((nu(1)**2) + (nu(2)**2) + (nu(3)**2))
+        if (.not. a > 0) cycle
+        nn_ = -nu / a
+        dr(:, i) = dr(:, i) - ((dr(1, i) * nn_(1)) + (dr(2, i) * nn_(2)) + (dr(3, i) * nn_(3))) &
+                              * nn_
+        cycle
+      end if
       nu = matmul(inv, s0(:, i))
-      ! (x^2 + y^2) + z^2 rather than norm2, whose scaled sum is not
-      ! symmetric in x and y (B1)
-      a = sqrt(nu(1)**2 + nu(2)**2 + nu(3)**2)
+      a = norm2(nu)
       if (.not. a > 0) cycle
       nn_ = -nu / a
       dr(:, i) = dr(:, i) - sum(dr(:, i) * nn_) * nn_
