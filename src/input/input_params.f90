@@ -188,9 +188,8 @@ module input_params
           doc='tensile instability control (Monaghan 2000, [doc/theory.md](theory.md) ' // &
               'E7): a repulsion -Sum_j m_j (R_i + R_j) (W_ij/W(dx))^n grad_i W_ij ' // &
               'between particles under negative pressure. Needed by the square patches ' // &
-              'unless `shifting` keeps the particles regular (on in ' // &
-              '`input/square_vortical.nml`; `input/square_rotation.nml` uses shifting, ' // &
-              'which measured better: doc/numerics.md)'), &
+              'unless `shifting` keeps the particles regular (both square inputs use ' // &
+              'shifting, which measured better: doc/numerics.md)'), &
     var_t(G_NUMERICS, 'tensile_eps', T_REAL, SCALAR, LO_GT, HI_LE, 0.0_wp, 1.0_wp, CH_NONE, &
           '', 'tensile control strength: R_i = tensile_eps |p_i|/rho_i^2 where p_i < 0', &
           doc='R_i = tensile_eps |p_i|/rho_i^2 where p_i < 0, else 0. 0.4 is the best ' // &
@@ -235,8 +234,8 @@ module input_params
               '[doc/theory.md](theory.md) E8): dr_i = -CFL Ma (2h)^2 Sum_j [1 + 0.2 ' // &
               '(W_ij/W(dx))^4] grad_i W_ij V_j, none on the free surface (lambda < ' // &
               '0.55), only tangential near it (lambda < 0.9). Positions only. Keeps the ' // &
-              'rotating square in one piece without the tensile control (on in ' // &
-              '`input/square_rotation.nml`); breaks the Lagrangian map (circle2d''s ' // &
+              'square patches in one piece without the tensile control (on in ' // &
+              'both square inputs); breaks the Lagrangian map (circle2d''s ' // &
               'position error doubles): off by default'), &
     var_t(G_NUMERICS, 'binned_sums', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_NONE, '', 'pair sums independent of the partners'' order: symmetric ' // &
@@ -246,7 +245,7 @@ module input_params
               'on the order of its partners: the square patches, symmetric under a ' // &
               'rotation or a mirror, then stay symmetric to the last bit. The ' // &
               'standard operators only (with shifting, the tensile control and either ' // &
-              'viscosity); the general, scalar pair loop: several times slower'), &
+              'viscosity); the general, scalar pair loop: 2.1 times the time of a step'), &
     var_t(G_OUTPUT, 'dir', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
           'a non-empty path of at most 255 characters', 'run directory'), &
     var_t(G_OUTPUT, 'dt', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
