@@ -107,15 +107,22 @@ contains
 
   !> Builds the list of radius list_radius on the grid aligned on the
   !> global lower corner of the owned particles, which every rank computes
-  !> alike (collective).
-  subroutine list_build(lm, env, dim, n, ntot, x, id, support)
+  !> alike (collective); `origin`, when given, is that corner already
+  !> computed (list_origin of the same owned positions).
+  subroutine list_build(lm, env, dim, n, ntot, x, id, support, origin)
     type(list_manager_t), intent(inout) :: lm
     type(parallel_env_t), intent(in) :: env
     integer, intent(in) :: dim, n, ntot
     real(wp), intent(in) :: x(3, ntot), support
     integer(i8), intent(in) :: id(ntot)
-    call neighbour_build(lm%nl, dim, n, ntot, x, id, list_radius(lm, support), &
-                         list_origin(env, n, x))
+    real(wp), intent(in), optional :: origin(3)
+    real(wp) :: lo(3)
+    if (present(origin)) then
+      lo = origin
+    else
+      lo = list_origin(env, n, x)
+    end if
+    call neighbour_build(lm%nl, dim, n, ntot, x, id, list_radius(lm, support), lo)
     lm%n_rebuilds = lm%n_rebuilds + 1
   end subroutine list_build
 

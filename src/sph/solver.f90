@@ -190,7 +190,7 @@ contains
     logical, intent(in), optional :: resume
     integer, allocatable :: perm(:)
     real(wp), allocatable :: w(:)
-    real(wp) :: radius
+    real(wp) :: radius, origin(3)
     integer :: ntot
     logical :: resuming
     resuming = .false.
@@ -201,14 +201,15 @@ contains
       call decomp_redistribute(s%dc, env, pt, w, radius, s%lm%n_rebuilds == 0)
       allocate(perm(pt%n))
       ! the list's canonical order (most of its ranges then map to
-      ! consecutive slots: neighbour_row)
-      call cell_sort_permutation(pt%dim, pt%n, pt%x, radius, perm, &
-                                 list_origin(env, pt%n, pt%x), pt%id(1:pt%n))
+      ! consecutive slots: neighbour_row); the owned positions keep their
+      ! lower corner through the sort, so the list reuses it
+      origin = list_origin(env, pt%n, pt%x)
+      call cell_sort_permutation(pt%dim, pt%n, pt%x, radius, perm, origin, pt%id(1:pt%n))
       call particles_permute(pt, perm)
       call decomp_halo_build(s%dc, env, pt, radius)
       call ensure_capacity(s)
       ntot = pt%n + pt%n_halo
-      call list_build(s%lm, env, pt%dim, pt%n, ntot, pt%x, pt%id, s%rhs%kernel%support)
+      call list_build(s%lm, env, pt%dim, pt%n, ntot, pt%x, pt%id, s%rhs%kernel%support, origin)
       if (resuming) then
         call swap_positions(pt)
       else
