@@ -203,7 +203,9 @@ validate: sph
 	$(PYTHON) postproc/validate $(VALIDATE_ARGS)
 
 # The same with the convergent recipe's fifth level (321,792 particles,
-# about 15 hours on two cores); earlier runs are reused.
+# about 8 hours on two cores); earlier runs are reused, stopped ones
+# continued from their checkpoints: it can go in pieces, e.g.
+# VALIDATE_ARGS="--wall-limit 10000" (or Ctrl-C), repeated until it reports.
 validate-long: sph
 	$(PYTHON) postproc/validate --reuse --fifth $(VALIDATE_ARGS)
 

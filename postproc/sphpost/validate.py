@@ -9,10 +9,15 @@ figures beside the paper's claims and what each part cost.
 
 `make validate` runs it.  Runs go to runs/validate/<case>_<N> (kept: rerun
 with --reuse to redo only the analysis); figures to doc/validation_*.png.
+A long study can go in pieces: --wall-limit (or Ctrl-C) stops the runs with
+checkpoints and leaves the report unwritten; the same command with --reuse
+continues them from their checkpoints, bit for bit, and reports when all
+have finished.
 
 Example:
   postproc/validate                 # the full study (8 minutes on 2 busy cores)
   postproc/validate --quick --doc /tmp/v --runs /tmp/v/runs   # a 20-second smoke run
+  make validate-long VALIDATE_ARGS="--wall-limit 10000"   # repeat until it reports
 """
 import argparse
 import datetime
@@ -20,6 +25,7 @@ import math
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -74,6 +80,21 @@ class Job:
         self.ok = None
         self.log = run_dir + ".log"
         self.reused = False
+        self.resume = False         # continued from its checkpoint
+        self.stopped = False        # stopped with a checkpoint (this invocation)
+        self.not_started = False    # left for the next invocation (--wall-limit)
+
+    def checkpoint(self):
+        return os.path.join(self.run_dir, "checkpoint.h5")
+
+    def stopped_before(self):
+        """A run of an earlier invocation that stopped with a checkpoint and
+        has not finished since (for --reuse: it is continued)."""
+        if not os.path.exists(self.log) or not os.path.exists(self.checkpoint()):
+            return False
+        text = open(self.log).read()
+        last_stop = text.rfind("sph: stopped by ")
+        return last_stop >= 0 and text.find("done: ", last_stop) < 0
 
     def done_before(self):
         """A finished run from an earlier invocation (for --reuse)."""
@@ -105,7 +126,49 @@ class Job:
         return bool(m)
 
 
-def run_jobs(jobs, sph, np_ranks, n_parallel, reuse):
+# the solver's exit status when it stopped with a checkpoint (simulation.f90)
+EXIT_CHECKPOINT = 75
+# a run is not started with less wall time left than this or a tenth of
+# --wall-limit, whichever is less
+MIN_PIECE = 60.0
+
+
+def start_job(j, sph, np_ranks, env, left):
+    """Starts run j (continued from its checkpoint when j.resume; with
+    run.wall_limit = left when left is not None); returns (j, process, log
+    file, start time, Open MPI session directory)."""
+    os.makedirs(os.path.dirname(j.run_dir), exist_ok=True)
+    # --bind-to none: several mpirun at once would otherwise all bind their
+    # rank 0 to core 0
+    cmd = ["mpirun", "--bind-to", "none", "-np", str(np_ranks), sph, j.nml] + \
+        j.overrides + [f"particles.n={j.n}", f"output.dir={j.run_dir}"]
+    if left is not None:
+        cmd.append(f"run.wall_limit={left:.1f}")
+    if j.resume:
+        # the command the solver printed when it stopped: the same run, bit
+        # for bit, from its checkpoint
+        cmd.append(f"run.restart={j.checkpoint()}")
+    verb = "continue" if j.resume else "start"
+    print(f"  {verb} {j.case} N = {j.n}: {' '.join(cmd[5:])}", flush=True)
+    f = open(j.log, "a" if j.resume else "w")
+    # a session directory of its own: Open MPI jobs started at the same moment
+    # can collide creating a shared one ("File exists")
+    tmp = tempfile.mkdtemp(prefix="sph-ompi-")
+    # a session of its own: Ctrl-C reaches validate alone, which asks each run
+    # to stop with a checkpoint
+    p = subprocess.Popen(cmd, stdout=f, stderr=subprocess.STDOUT, cwd=ROOT,
+                         env=dict(env, OMPI_MCA_orte_tmpdir_base=tmp), start_new_session=True)
+    return j, p, f, time.time(), tmp
+
+
+def run_jobs(jobs, sph, np_ranks, n_parallel, reuse, deadline=None, min_piece=MIN_PIECE):
+    """Runs the jobs, n_parallel at a time.  With reuse, a finished run is
+    kept and a run stopped with a checkpoint is continued from it (its log
+    appended).  deadline (time.time()): each run started gets the wall time
+    left as run.wall_limit and stops with a checkpoint; none starts with
+    less than min_piece left.  Ctrl-C stops the runs the same way (SIGUSR1,
+    which mpirun passes to every rank).  Returns the jobs that stopped or
+    did not start."""
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
                OMPI_MCA_rmaps_base_oversubscribe="1")
     todo = []
@@ -114,36 +177,53 @@ def run_jobs(jobs, sph, np_ranks, n_parallel, reuse):
             j.reused = True
             print(f"  reuse {j.run_dir} ({j.steps} steps, {j.wall:.1f} s)")
         else:
+            j.resume = reuse and j.stopped_before()
             todo.append(j)
     todo.sort(key=lambda j: -j.cost)     # longest first: the others fill the other core
     running = []
-    while todo or running:
-        while todo and len(running) < n_parallel:
-            j = todo.pop(0)
-            os.makedirs(os.path.dirname(j.run_dir), exist_ok=True)
-            # --bind-to none: several mpirun at once would otherwise all bind
-            # their rank 0 to core 0
-            cmd = ["mpirun", "--bind-to", "none", "-np", str(np_ranks), sph, j.nml] + \
-                j.overrides + [f"particles.n={j.n}", f"output.dir={j.run_dir}"]
-            print(f"  start {j.case} N = {j.n}: {' '.join(cmd[5:])}", flush=True)
-            f = open(j.log, "w")
-            # a session directory of its own: Open MPI jobs started at the same
-            # moment can collide creating a shared one ("File exists")
-            tmp = tempfile.mkdtemp(prefix="sph-ompi-")
-            p = subprocess.Popen(cmd, stdout=f, stderr=subprocess.STDOUT, cwd=ROOT,
-                                 env=dict(env, OMPI_MCA_orte_tmpdir_base=tmp))
-            running.append((j, p, f, time.time(), tmp))
-        time.sleep(0.2)
-        for item in list(running):
-            j, p, f, t0, tmp = item
-            if p.poll() is not None:
-                f.close()
-                shutil.rmtree(tmp, ignore_errors=True)
-                running.remove(item)
-                j.parse(open(j.log).read())
-                j.ok = p.returncode == 0 and j.ok
-                state = "done" if j.ok else f"FAILED (exit {p.returncode}, see {j.log})"
-                print(f"  {state}: {j.case} N = {j.n} in {time.time() - t0:.1f} s", flush=True)
+    interrupts = []                  # Ctrl-C: one entry per SIGINT
+
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: interrupts.append(signum))
+    try:
+        asked = 0                    # SIGINTs acted on
+        while todo or running:
+            left = None if deadline is None else deadline - time.time()
+            while todo and len(running) < n_parallel and not interrupts and (
+                    left is None or left >= min_piece):
+                running.append(start_job(todo.pop(0), sph, np_ranks, env, left))
+            if not running:
+                break                    # interrupted, or no time left to start the rest
+            time.sleep(0.2)
+            if len(interrupts) > asked:
+                asked = len(interrupts)
+                if asked == 1:
+                    print("  interrupted: the runs stop with a checkpoint after their step "
+                          "(Ctrl-C again to kill them)", flush=True)
+                for j, p, *_ in running:
+                    if asked == 1:
+                        p.send_signal(signal.SIGUSR1)
+                    else:
+                        p.kill()
+            for item in list(running):
+                j, p, f, t0, tmp = item
+                if p.poll() is not None:
+                    f.close()
+                    shutil.rmtree(tmp, ignore_errors=True)
+                    running.remove(item)
+                    j.parse(open(j.log).read())
+                    j.stopped = p.returncode == EXIT_CHECKPOINT
+                    j.ok = p.returncode == 0 and j.ok
+                    state = "done" if j.ok else (
+                        "stopped with a checkpoint" if j.stopped else
+                        f"FAILED (exit {p.returncode}, see {j.log})")
+                    print(f"  {state}: {j.case} N = {j.n} in {time.time() - t0:.1f} s",
+                          flush=True)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    for j in todo:
+        j.ok = False
+        j.not_started = True
+    return [j for j in jobs if j.stopped or j.not_started]
 
 
 def quiet(line):
@@ -777,7 +857,12 @@ def command(argv, prog="postproc/validate"):
                     help="add the convergent recipe's fifth level, 321,792 particles "
                          "(about 9 hours on two cores)")
     ap.add_argument("--reuse", action="store_true",
-                    help="reuse finished runs found in --runs; run only the missing ones")
+                    help="reuse finished runs found in --runs, continue the runs stopped "
+                         "with a checkpoint, run only the missing ones")
+    ap.add_argument("--wall-limit", type=float, metavar="SECONDS",
+                    help="stop the runs with checkpoints within this wall time and leave "
+                         "the report unwritten; the same command with --reuse continues "
+                         "them (the long study in pieces)")
     args = ap.parse_args(argv)
     if not os.access(args.sph, os.X_OK):
         raise sp.PostprocError(f"no solver at {args.sph}: build it with make")
@@ -822,8 +907,20 @@ def command(argv, prog="postproc/validate"):
                 for j in jobs_for("square_rotation", [n4], (), extra, f"_fig4_{k}")]
     all_jobs = circle + circle_std + circle_conv + ell + [j for js in squares.values() for j in js] + fig4
     print(f"validate: {len(all_jobs)} runs into {args.runs}, {args.jobs} at a time")
-    run_jobs(all_jobs, args.sph, args.np, args.jobs, args.reuse)
+    if args.wall_limit is not None and args.wall_limit <= 0:
+        raise sp.PostprocError(f"--wall-limit {args.wall_limit:g}: allowed > 0 seconds")
+    deadline = None if args.wall_limit is None else t_start + args.wall_limit
+    left = run_jobs(all_jobs, args.sph, args.np, args.jobs, args.reuse, deadline,
+                    MIN_PIECE if deadline is None else min(MIN_PIECE, 0.1 * args.wall_limit))
     load1 = os.getloadavg()[0]
+    if left:
+        # a report without them would replace a complete one
+        print("validate: not finished: " + ", ".join(
+            f"{os.path.basename(j.run_dir)} ({'checkpoint' if j.stopped else 'not started'})"
+            for j in left))
+        print("validate: report not written; continue with the same command and --reuse "
+              "(make validate-long always reuses)")
+        return EXIT_CHECKPOINT
 
     print("validate: post-processing")
     frac = sp.DEFAULT_ACOUSTIC_FRACTION

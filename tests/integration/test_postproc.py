@@ -6,6 +6,7 @@ calls, the library's names)."""
 import json
 import math
 import os
+import pathlib
 import re
 import subprocess
 import sys
@@ -389,6 +390,52 @@ def test_validate_quick_writes_report(scratch):
     assert "| 1,256 |" in md and "least squares" in md and "Beside the paper's claims" in md
     for png in ("convergence", "fig1", "pressure_error", "spectrum"):
         assert (tmp / "doc" / f"validation_circle2d_{png}.png").exists(), png
+
+
+def test_validate_in_pieces_continues_from_checkpoints(scratch):
+    """--wall-limit stops the study's runs with checkpoints and writes no
+    report (exit 75); the same command with --reuse continues them and
+    reports; a continued run ends with the bits of an uninterrupted one."""
+    tmp = scratch("validate_pieces")
+    common = ["--quick", "--cases", "circle2d", "--runs", tmp / "runs", "--doc", tmp / "doc",
+              "--sph", SPH, "--np", "2"]
+    # 2 s: the quick study takes about 20 s on two cores, its longest run
+    # (the recipe at 1,257 particles, started first) about 10 s
+    p = script("validate", *common, "--wall-limit", "2", check=False)
+    assert p.returncode == 75, p.stdout + p.stderr
+    assert "report not written" in p.stdout and not (tmp / "doc" / "validation.md").exists()
+    stopped = [log for log in (tmp / "runs").glob("*.log")
+               if "sph: stopped by run.wall_limit" in log.read_text()]
+    assert stopped, p.stdout
+    p = script("validate", *common, "--reuse")
+    assert (tmp / "doc" / "validation.md").exists()
+    cont = re.findall(r"^  continue circle2d N = \d+: (.*)$", p.stdout, re.M)
+    assert len(cont) == len(stopped), p.stdout
+    # the first continued run again, uninterrupted, into a directory of its own
+    args = cont[0].split()[1:]             # (the first: the solver)
+    run_dir = next(a for a in args if a.startswith("output.dir="))[len("output.dir="):]
+    args = [a for a in args if not a.startswith(("output.dir=", "run.restart=",
+                                                 "run.wall_limit="))]
+    whole = tmp / "whole"
+    q = run_sph(args + [f"output.dir={whole}"], np=2)
+    assert q.returncode == 0, q.out
+    # every step once, at the same times; the particles at the end the same
+    # bits (the time series' global sums run in storage order, which a
+    # restart may change: compared to round-off)
+    a = read_timeseries(os.path.join(run_dir, "timeseries.csv"))
+    b = read_timeseries(whole / "timeseries.csv")
+    assert len(a["time"]) == len(b["time"]) > 5
+    for k in ("time", "step", "dt"):
+        assert a[k] == b[k], k
+    assert np.allclose(a["kinetic_energy"], b["kinetic_energy"], rtol=1e-12, atol=0)
+    import h5py
+    ends = []
+    for d in (pathlib.Path(run_dir), whole):
+        with h5py.File(sorted(d.glob("snap_*.h5"))[-1], "r") as h:
+            order = np.argsort(h["id"][:])
+            ends.append({k: h[k][:][order] for k in ("position", "velocity", "density")})
+    for k in ends[0]:
+        assert np.array_equal(ends[0][k].view(np.int64), ends[1][k].view(np.int64)), k
 
 
 def test_scripts_help_and_bad_run_directory(scratch, tiny_run):
