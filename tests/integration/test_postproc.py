@@ -8,8 +8,10 @@ import math
 import os
 import pathlib
 import re
+import signal
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -436,6 +438,34 @@ def test_validate_in_pieces_continues_from_checkpoints(scratch):
             ends.append({k: h[k][:][order] for k in ("position", "velocity", "density")})
     for k in ends[0]:
         assert np.array_equal(ends[0][k].view(np.int64), ends[1][k].view(np.int64)), k
+
+
+def test_validate_ctrl_c_stops_runs_with_checkpoints(scratch):
+    """Ctrl-C (SIGINT to validate alone: the runs have sessions of their own)
+    asks the running runs to stop with checkpoints, starts no more and
+    writes no report (exit 75); --reuse then finishes the study."""
+    tmp = scratch("validate_ctrl_c")
+    common = [str(POSTPROC / "validate"), "--quick", "--cases", "circle2d", "--runs",
+              str(tmp / "runs"), "--doc", str(tmp / "doc"), "--sph", str(SPH), "--np", "2"]
+    p = subprocess.Popen(common, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    # the first run started (the recipe at 1,257 particles, about 10 s) is
+    # interrupted once in its time loop, where its signal handlers are set
+    log = tmp / "runs" / "circle2d_convergence_1257.log"
+    t0 = time.monotonic()
+    while not (log.exists() and re.search(r"^step +\d+ ", log.read_text(), re.M)):
+        assert time.monotonic() - t0 < 120 and p.poll() is None, "no step logged"
+        time.sleep(0.1)
+    p.send_signal(signal.SIGINT)
+    out, _ = p.communicate(timeout=300)
+    assert p.returncode == 75, out
+    assert "interrupted" in out and "report not written" in out and "not started" in out, out
+    assert "sph: stopped by SIGUSR1" in log.read_text()
+    assert (tmp / "runs" / "circle2d_convergence_1257" / "checkpoint.h5").exists()
+    assert not (tmp / "doc" / "validation.md").exists()
+    q = subprocess.run(common + ["--reuse"], capture_output=True, text=True, timeout=300)
+    assert q.returncode == 0, q.stdout + q.stderr
+    assert "continue circle2d N = 1257" in q.stdout
+    assert (tmp / "doc" / "validation.md").exists()
 
 
 def test_scripts_help_and_bad_run_directory(scratch, tiny_run):
