@@ -24,7 +24,7 @@ module simulation
                          probe_pressure_quadratic, &
                          find_bad_particle
   use case_base, only: case_t, case_fields_t, case_flow_t
-  use parallel_env, only: parallel_env_t, par_sum, par_any, par_max, wall_time
+  use parallel_env, only: parallel_env_t, par_sum, par_any, par_max, par_min, wall_time
   use fileutil, only: make_directory, join_path, rename_file, temp_path, file_exists
   use snapshot_io, only: snapshot_field_t, snapshot_source_t, snapshot_write, &
                          snapshot_filename, xdmf_index_t, xdmf_init
@@ -386,12 +386,13 @@ contains
     real(wp), intent(out) :: dx
     logical, intent(out) :: ok
     character(len=:), allocatable :: errmsg
-    real(wp) :: t, vol, r_max, radius
+    real(wp) :: t, vol, r_max, radius, n_file
     integer :: step, n, dim
+    character(len=24) :: count
     dim = s%parts%dim
     radius = problem%pack_radius
     call restart_read(env, trim(cfg%particles%from), trim(cfg%run%case_name), dim, s%parts, &
-                      t, step, ok, errmsg)
+                      t, step, ok, errmsg, variable='&particles from')
     if (ok) then
       n = s%parts%n
       s%parts%x(:, 1:n) = s%parts%x0(:, 1:n)
@@ -401,6 +402,18 @@ contains
         ok = .false.
         errmsg = '&particles from = ''' // trim(cfg%particles%from) // ''': its initial ' // &
                  'positions reach outside the radius of this case'
+      end if
+      ! (S1) h/dx, c0, alpha and delta scale with particles.n: it must be
+      ! the file's count (to the packing's rounding, under 1 % measured)
+      n_file = par_sum(env, real(n, wp))
+      if (ok .and. cfg%particles%n_ref > 0 .and. &
+          abs(n_file - cfg%particles%n) > 0.02_wp * cfg%particles%n) then
+        ok = .false.
+        write(count, '(i0)') nint(n_file, i8)
+        errmsg = '&particles from = ''' // trim(cfg%particles%from) // ''' holds ' // &
+                 trim(count) // ' particles, but with &particles n_ref > 0 the resolution ' // &
+                 'scaling takes h/dx, c0, alpha and delta from &particles n: set n to ' // &
+                 'the file''s count'
       end if
     end if
     if (.not. par_any_fail(env, ok, errmsg)) then
@@ -633,15 +646,19 @@ contains
     call rename_file(tmp, path, ok, errmsg)
   end subroutine echo_input
 
-  !> Collective check of a local ok flag: rank 0 prints the message of a
-  !> failure; returns .true. when every rank succeeded.
+  !> Collective check of a local ok flag: the lowest failing rank prints
+  !> its message; returns .true. when every rank succeeded.
   function par_any_fail(env, ok, errmsg) result(all_ok)
     type(parallel_env_t), intent(in) :: env
     logical, intent(in) :: ok
     character(len=*), intent(in) :: errmsg
     logical :: all_ok
-    all_ok = .not. par_any(env, .not. ok)
-    if (.not. ok) write(error_unit, '(a)') 'sph: error: ' // errmsg
+    real(wp) :: first
+    ! the lowest failing rank says why: the same failure on every rank (a
+    ! file all of them read) is said once
+    first = par_min(env, merge(real(env%nranks, wp), real(env%rank, wp), ok))
+    all_ok = first >= env%nranks
+    if (.not. ok .and. env%rank == nint(first)) write(error_unit, '(a)') 'sph: error: ' // errmsg
   end function par_any_fail
 
   subroutine print_start(cfg, env, s, run, dx, dt)

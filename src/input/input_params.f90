@@ -127,7 +127,9 @@ module input_params
           doc='reuse a packed distribution: the initial positions (`position_initial`) ' // &
               'of any snapshot of a packed run of the same case, e.g. ' // &
               '`runs/e1M/snap_00000.h5`, instead of packing again; dx follows from its ' // &
-              'particle count and `n` is not used'), &
+              'particle count and `n` is not used, except with `n_ref > 0`, whose scaling ' // &
+              'takes h/dx, c0, alpha and delta from `n`: then `n` must be the file''s ' // &
+              'count (within 2 %)'), &
     var_t(G_PHYSICS, 'rho0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
           'reference density'), &
     var_t(G_PHYSICS, 'c0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &

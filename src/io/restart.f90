@@ -42,8 +42,10 @@ contains
   !> of the same case and dimension and hold every field the registry
   !> restarts from (`position_initial` among them).  A checkpoint (written
   !> when a run is stopped early) gives the reference positions of the
-  !> neighbour list too, and info what else the run carried.
-  subroutine restart_read(env, path, case_name, dim, parts, t, step, ok, errmsg, info)
+  !> neighbour list too, and info what else the run carried.  The messages
+  !> name the input variable that gave path: `variable`, by default
+  !> '&run restart' ('&particles from' for packed particles).
+  subroutine restart_read(env, path, case_name, dim, parts, t, step, ok, errmsg, info, variable)
     type(parallel_env_t), intent(in) :: env
     character(len=*), intent(in) :: path, case_name
     integer, intent(in) :: dim
@@ -53,26 +55,30 @@ contains
     logical, intent(out) :: ok
     character(len=:), allocatable, intent(out) :: errmsg
     type(restart_info_t), intent(out), optional :: info
+    character(len=*), intent(in), optional :: variable
     type(snapshot_t) :: snap
     type(restart_info_t) :: inf
     character(len=:), allocatable :: missing
+    character(len=:), allocatable :: name
     integer :: k
     t = 0
     step = 0
+    name = '&run restart'
+    if (present(variable)) name = variable
     call snapshot_read(env%comm, path, snap, ok, errmsg)
     if (.not. ok) then
-      errmsg = '&run restart = ''' // path // ''': ' // errmsg
+      errmsg = name // ' = ''' // path // ''': ' // errmsg
       return
     end if
     if (snap%case_name /= case_name .or. snap%dim /= dim) then
       ok = .false.
-      errmsg = '&run restart = ''' // path // ''' is a snapshot of case ''' // &
+      errmsg = name // ' = ''' // path // ''' is a snapshot of case ''' // &
                snap%case_name // ''': it cannot restart case ''' // case_name // ''''
       return
     end if
     call particles_from_snapshot(snap, dim, parts, ok, missing)
     if (.not. ok) then
-      errmsg = '&run restart = ''' // path // ''' has no ' // missing // ' dataset ' // &
+      errmsg = name // ' = ''' // path // ''' has no ' // missing // ' dataset ' // &
                '(written by an older version): it cannot be restarted from'
       return
     end if
@@ -94,7 +100,7 @@ contains
     if (inf%checkpoint) then
       call particles_from_checkpoint(snap, dim, parts, ok, missing)
       if (.not. ok) then
-        errmsg = '&run restart = ''' // path // ''' is a checkpoint without its ' // &
+        errmsg = name // ' = ''' // path // ''' is a checkpoint without its ' // &
                  missing // ' dataset: it cannot be restarted from'
         return
       end if

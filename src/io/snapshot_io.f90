@@ -28,6 +28,7 @@ module snapshot_io
                      MPI_INTEGER8, MPI_INTEGER, MPI_SUM, MPI_MAX, MPI_INFO_NULL, MPI_IN_PLACE
   use hdf5, only: hid_t, hsize_t, size_t, h5open_f, &
                   h5fcreate_f, h5fopen_f, h5fclose_f, H5F_ACC_TRUNC_F, H5F_ACC_RDONLY_F, &
+                  h5fis_hdf5_f, h5eset_auto_f, &
                   h5pcreate_f, h5pclose_f, h5pset_fapl_mpio_f, h5pset_dxpl_mpio_f, &
                   H5P_FILE_ACCESS_F, H5P_DATASET_XFER_F, H5FD_MPIO_COLLECTIVE_F, &
                   h5screate_simple_f, h5screate_f, h5sclose_f, h5sselect_hyperslab_f, &
@@ -1286,6 +1287,7 @@ contains
     character(len=:), allocatable, intent(inout) :: errmsg
     integer(hid_t) :: fapl
     integer :: err, err_close
+    logical :: is_hdf5
     ok = .false.
     file_id = -1
     dxpl = -1
@@ -1299,7 +1301,19 @@ contains
       if (create) then
         call h5fcreate_f(path, H5F_ACC_TRUNC_F, file_id, err, access_prp=fapl)
       else
+        ! a file that is not one: said in one line, without HDF5's own
+        ! error stack (a damaged file fails the open below, also quietly)
+        call h5eset_auto_f(0, err_close)
+        call h5fis_hdf5_f(path, is_hdf5, err)
+        if (err >= 0 .and. .not. is_hdf5) then
+          call h5eset_auto_f(1, err_close)
+          call h5pclose_f(fapl, err_close)
+          errmsg = '"' // path // '" is not an HDF5 file (give a snap_NNNNN.h5 or ' // &
+                   'checkpoint.h5 that sph wrote)'
+          return
+        end if
         call h5fopen_f(path, H5F_ACC_RDONLY_F, file_id, err, access_prp=fapl)
+        call h5eset_auto_f(1, err_close)
       end if
     end if
     call h5pclose_f(fapl, err_close)
@@ -1308,7 +1322,7 @@ contains
       if (create) then
         errmsg = 'HDF5: cannot create "' // path // '"'
       else
-        errmsg = 'cannot open snapshot "' // path // '"'
+        errmsg = 'cannot open snapshot "' // path // '" (a damaged or unreadable HDF5 file)'
       end if
       return
     end if

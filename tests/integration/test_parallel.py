@@ -241,6 +241,39 @@ def test_packed_particles_from_snapshot(scratch):
         assert np.array_equal(a[k].view(np.int64), b[k].view(np.int64)), k
 
 
+def test_bad_snapshot_files_said_once_and_by_variable(scratch):
+    # a file that is not HDF5, one cut short, and (with the resolution
+    # scaling) a packed file of another particle count: one line each on two
+    # ranks, naming the variable that gave the file, HDF5's own error stack
+    # not printed, nothing written
+    d = scratch("badfiles") / "never"
+    junk = scratch("badfiles_in") / "junk.h5"
+    junk.write_text("not a snapshot\n" * 100)
+    packed = scratch("badfiles_packed") / "run"
+    recipe = ["input/circle2d_convergence.nml", "particles.n=314", "run.max_steps=1"]
+    p = run_sph(recipe + [f"output.dir={packed}"], np=1)
+    assert p.returncode == 0, p.out
+    cut = junk.parent / "cut.h5"
+    cut.write_bytes((packed / "snap_00000.h5").read_bytes()[:3000])
+    cases = [(["input/circle2d.nml", f"run.restart={junk}"], "&run restart", "not an HDF5 file"),
+             (recipe + [f"particles.from={junk}"], "&particles from", "not an HDF5 file"),
+             (recipe + [f"particles.from={cut}"], "&particles from", "damaged"),
+             (["input/circle2d_convergence.nml", "particles.n=1257",
+               f"particles.from={packed / 'snap_00000.h5'}"], "&particles from",
+              "set n to the file's count")]
+    for args, variable, why in cases:
+        p = run_sph(args + [f"output.dir={d}"], np=2)
+        errors = [line for line in p.stderr.splitlines() if line.startswith("sph: error:")]
+        assert p.returncode != 0 and len(errors) == 1, p.out
+        assert variable in errors[0] and why in errors[0], errors
+        assert "HDF5-DIAG" not in p.out, p.out
+        assert not d.exists()
+    # the same file with its own count starts
+    p = run_sph(["input/circle2d_convergence.nml", "particles.n=314", "run.max_steps=1",
+                 f"particles.from={packed / 'snap_00000.h5'}", f"output.dir={d}"], np=2)
+    assert p.returncode == 0, p.out
+
+
 def _peak_mb(args, np_):
     p = run_sph(["input/ellipsoid3d.nml", "run.max_steps=2", "output.snapshots=.false.",
                  "particles.pack_iterations=20"] + args, np=np_)
