@@ -21,6 +21,13 @@ contains
     character(len=512) :: iomsg
     integer :: u, ios, nline
     logical :: is_dir, quote_open
+    !> the control characters no text file holds (tab, CR and form feed
+    !> are text)
+    character(len=*), parameter :: CONTROL = achar(0) // achar(1) // achar(2) // achar(3) // &
+      achar(4) // achar(5) // achar(6) // achar(7) // achar(8) // achar(11) // achar(14) // &
+      achar(15) // achar(16) // achar(17) // achar(18) // achar(19) // achar(20) // &
+      achar(21) // achar(22) // achar(23) // achar(24) // achar(25) // achar(26) // &
+      achar(27) // achar(28) // achar(29) // achar(30) // achar(31) // achar(127)
 
     buf = ''
     allocate(line_of(0))
@@ -51,6 +58,13 @@ contains
         return
       end if
       nline = nline + 1
+      ! a binary file: said, not echoed to the terminal
+      if (scan(line, CONTROL) > 0) then
+        call fail(err, path, 'is not a text file', nline, &
+                  ': it holds a control character (a namelist file is text)')
+        close(u)
+        return
+      end if
       call strip_comment(line, quote_open)
       if (quote_open) then
         call fail(err, path, 'a quoted string is not closed', nline, &
