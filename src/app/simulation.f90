@@ -10,6 +10,7 @@ module simulation
   use config, only: config_t, config_dim, config_echo, config_case, config_scaled, &
                     config_resolution_scale
   use input_params, only: VISCOSITIES, DIFFUSIONS, PRESSURE_GRADIENTS
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_nan
   use kernels, only: kernel_init, kernel_kind_of
   use eos, only: eos_init, EOS_LINEAR, EOS_TAIT
   use fluid_rhs, only: VISC_NONE, VISC_DELTA, VISC_MONAGHAN, DIFF_NONE, DIFF_MOLTENI, &
@@ -180,7 +181,7 @@ contains
       if (env%rank == 0) write(output_unit, '(a,es12.5,a,i0,a)') '  restarted from ' // &
         trim(cfg%run%restart) // ' at t = ', t, ', step ', step, ''
     else
-      call sample(run, env, s, t, step, 0.0_wp)
+      call sample(run, env, s, t, step, 0.0_wp, warn_empty_probes=.true.)
       w = wall_time()
       call write_snapshot(cfg, env, s, run, t, step, ok)
       if (.not. ok) then
@@ -445,12 +446,16 @@ contains
   end function column_names
 
   !> One row of the time series.
-  subroutine sample(run, env, s, t, step, dt)
+  !> With warn_empty_probes, rank 0 says which probes have no particle
+  !> within their support (nan in the time series): at the start, most
+  !> likely a probe placed outside the fluid.
+  subroutine sample(run, env, s, t, step, dt, warn_empty_probes)
     type(run_t), intent(inout) :: run
     type(parallel_env_t), intent(in) :: env
     type(solver_t), intent(in) :: s
     real(wp), intent(in) :: t, dt
     integer, intent(in) :: step
+    logical, intent(in), optional :: warn_empty_probes
     real(wp), allocatable :: row(:), case_values(:)
     real(wp) :: mom(3), p_probe(16)
     integer :: k, dim
@@ -464,6 +469,14 @@ contains
         p_probe(k) = probe_pressure(env, s%parts, s%rhs%kernel, run%probes(:, k))
       end if
     end do
+    if (present(warn_empty_probes)) then
+      do k = 1, run%n_probes
+        if (warn_empty_probes .and. env%rank == 0 .and. ieee_is_nan(p_probe(k))) &
+          write(output_unit, '(a,i0,a,3(g0.6,1x),a)') 'sph: warning: probe ', k, ' at ', &
+            run%probes(:, k), 'has no particle within its kernel support: its pressure ' // &
+            'is nan until fluid reaches it (output.probes)'
+      end do
+    end if
     call run%problem%sample(env, t, s%parts, s%rhs%kernel, case_values)
     row = [t, real(step, wp), dt, s%dc%imbalance, kinetic_energy(env, s%parts), &
            total_mass(env, s%parts), &

@@ -1,5 +1,7 @@
 """Every numerics switch runs circle2d end to end and stays close to the exact
 solution; ellipsoid3d (same code, dim = 3) runs and is accurate too."""
+import math
+
 from common import run_sph, read_timeseries
 
 # circle2d, about 1,250 particles to t A0 = 0.25.  At this time the default
@@ -110,3 +112,19 @@ def test_large_delta_runs_under_the_diffusive_step_limit(scratch):
     ts = read_timeseries(d / "timeseries.csv")
     assert ts["rms_velocity_error"][-1] < 0.009
     assert abs(ts["kinetic_energy"][-1] / ts["kinetic_energy"][0] - 1) < 0.01
+
+
+def test_probe_outside_the_fluid_is_warned_and_nan(scratch):
+    # a probe with no particle in its support at the start (most likely a
+    # slip in its coordinates): a warning at start-up and nan in the time
+    # series (doc/output.md); the centre probe of the input file has neither
+    d = scratch("probe_out") / "run"
+    p = run_sph(["input/circle2d.nml", "particles.n=400", "run.t_end=0.05",
+                 "output.n_probes=2", "output.probes(1:3,2)=50,50,0", f"output.dir={d}"], np=2)
+    assert p.returncode == 0, p.out
+    warnings = [line for line in p.stdout.splitlines() if line.startswith("sph: warning: probe")]
+    assert len(warnings) == 1 and warnings[0].startswith("sph: warning: probe 2 at 50.0"), \
+        p.stdout
+    ts = read_timeseries(d / "timeseries.csv")
+    assert all(math.isnan(v) for v in ts["p_probe_2"])
+    assert not any(math.isnan(v) for v in ts["p_probe_1"])
