@@ -203,7 +203,8 @@ def run_jobs(jobs, sph, np_ranks, n_parallel, reuse, deadline=None, min_piece=MI
                     if asked == 1:
                         p.send_signal(signal.SIGUSR1)
                     else:
-                        p.kill()
+                        # mpirun leads its session: its ranks go with it
+                        os.killpg(p.pid, signal.SIGKILL)
             for item in list(running):
                 j, p, f, t0, tmp = item
                 if p.poll() is not None:
@@ -918,6 +919,10 @@ def command(argv, prog="postproc/validate"):
         print("validate: not finished: " + ", ".join(
             f"{os.path.basename(j.run_dir)} ({'checkpoint' if j.stopped else 'not started'})"
             for j in left))
+        failed = [j for j in all_jobs if j.ok is False and not (j.stopped or j.not_started)]
+        if failed:
+            print("validate: failed (started afresh next time): " + ", ".join(
+                os.path.basename(j.run_dir) for j in failed))
         print("validate: report not written; continue with the same command and --reuse "
               "(make validate-long always reuses)")
         return EXIT_CHECKPOINT
