@@ -57,7 +57,7 @@ LIB_OBJ   := $(sort $(addprefix $(BUILD)/,$(addsuffix .o,$(basename $(notdir $(L
 vpath %.f90 $(SRC_DIRS) tests
 vpath %.F90 $(SRC_DIRS)
 
-.PHONY: all sph debug test unit bench decomp-study validate validate-long input-doc clean
+.PHONY: all sph debug asan test unit bench decomp-study validate validate-long input-doc clean
 all: sph
 
 # copy then rename: replaces ./sph atomically, even while it is running
@@ -231,6 +231,13 @@ input-doc: sph
 debug:
 	$(MAKE) BUILD=build/debug \
 	  OPTFLAGS="-O0 -g -fcheck=all -ffpe-trap=invalid,zero,overflow -fbacktrace -finit-real=snan"
+
+# AddressSanitizer build beside the release one (./sph is left as it is):
+#   ASAN_OPTIONS=detect_leaks=0 mpirun -np 2 build/asan/sph input/circle2d.nml
+# (leak detection off: Open MPI keeps its allocations to the end)
+asan:
+	$(MAKE) BUILD=build/asan OPTFLAGS="-O1 -g -fsanitize=address -fno-omit-frame-pointer" \
+	  build/asan/sph
 
 clean:
 	rm -rf build sph
