@@ -232,12 +232,14 @@ debug:
 	$(MAKE) BUILD=build/debug \
 	  OPTFLAGS="-O0 -g -fcheck=all -ffpe-trap=invalid,zero,overflow -fbacktrace -finit-real=snan"
 
-# AddressSanitizer build beside the release one (./sph is left as it is):
+# AddressSanitizer build beside the release one (./sph is left as it is),
+# with its unit tests; from the repository's root:
 #   ASAN_OPTIONS=detect_leaks=0 mpirun -np 2 build/asan/sph input/circle2d.nml
+#   ASAN_OPTIONS=detect_leaks=0 mpirun -np 3 build/asan/unit_tests
 # (leak detection off: Open MPI keeps its allocations to the end)
 asan:
 	$(MAKE) BUILD=build/asan OPTFLAGS="-O1 -g -fsanitize=address -fno-omit-frame-pointer" \
-	  build/asan/sph
+	  build/asan/sph build/asan/unit_tests
 
 clean:
 	rm -rf build sph
