@@ -92,6 +92,7 @@ contains
     integer :: step, dim, i_bad, k_out, step0, signum
     logical :: ok, done, snap_now, restarting, have_series
     character(len=:), allocatable :: errmsg, reason
+    character(len=160) :: line
     type(config_t) :: cfg
     type(restart_info_t) :: info
     type(step_history_t) :: history
@@ -121,8 +122,10 @@ contains
       write_max = wall_time() - w
       if (ok .and. t >= t_end - tol) then
         ok = .false.
-        write(errmsg, '(a,es12.5,a,es12.5,a)') '&run restart: the snapshot is at t = ', t, &
+        ! (errmsg is of deferred length: written through a buffer)
+        write(line, '(a,es12.5,a,es12.5,a)') ''': the snapshot is at t = ', t, &
           ', not before &run t_end = ', t_end, ': nothing to do (raise run.t_end)'
+        errmsg = '&run restart = ''' // trim(cfg%run%restart) // trim(line)
       end if
       if (.not. par_any_fail(env, ok, errmsg)) then
         status = 2

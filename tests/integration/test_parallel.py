@@ -164,6 +164,14 @@ def test_bad_restart_writes_nothing(scratch):
     p = run_sph(["input/circle2d.nml", f"output.dir={d}", f"run.restart={sq / 'snap_00000.h5'}"])
     assert p.returncode != 0 and "square_rotation" in p.stderr, p.stderr
     assert not d.exists()
+    # a snapshot at or after t_end: nothing to do, said in one line (it was a
+    # Fortran runtime error, writing the message into a string too short)
+    last = sorted(sq.glob("snap_*.h5"))[-1]
+    p = run_sph(["input/square_rotation.nml", "particles.n=400", f"output.dir={d}",
+                 "run.t_end=0.01", f"run.restart={last}"], np=2)
+    assert p.returncode == 2 and "nothing to do (raise run.t_end)" in p.stderr, p.out
+    assert "runtime error" not in p.out
+    assert not d.exists()
 
 
 def test_square_vortical_parallel(scratch):
