@@ -513,6 +513,16 @@ contains
       hint = ': a ''/'' outside quotes ends the namelist input'
       return
     end if
+    ! gfortran reads any .word. by its first letter (.tomato. as true)
+    if (vars(v)%type == T_LOGICAL) then
+      select case (lower(trim(adjustl(shown_value(value)))))
+      case ('.true.', '.false.', '.t.', '.f.', 't', 'f')
+      case default
+        reason = 'cannot be read as ' // type_text(vars(v))
+        hint = ': write .true. or .false.'
+        return
+      end select
+    end if
     call read_group(g, '&' // group // ' ' // name // ' = ' // value // ' /', c, ios, iomsg)
     if (ios == 0) then
       status = ITEM_OK
