@@ -492,12 +492,19 @@ contains
     call MPI_Comm_rank(comm, rank)
     call MPI_Comm_size(comm, nranks)
     call h5open_f(err)
+    ! what fails is said in errmsg: HDF5's own error stack is not printed
+    call h5eset_auto_f(0, err)
     file_id = -1
     dxpl = -1
     ok = .false.
     io: block
-      if (.not. file_exists(filename)) then   ! spares the user HDF5's error stack
+      if (.not. file_exists(filename)) then
         errmsg = 'no file "' // filename // '"'
+        exit io
+      end if
+      inquire(file=filename // '/.', exist=exists)
+      if (exists) then                         ! MPI-IO would fail at length
+        errmsg = '"' // filename // '" is a directory, not a snapshot file'
         exit io
       end if
       if (.not. open_parallel(filename, .false., comm, file_id, dxpl, errmsg)) exit io
@@ -614,6 +621,7 @@ contains
       snap%attr_values = avalues(1:nfound)
       ok = .true.
     end block io
+    call h5eset_auto_f(1, err)
     if (dxpl >= 0) call h5pclose_f(dxpl, err)
     if (file_id >= 0) then
       call h5fclose_f(file_id, err)
@@ -1301,19 +1309,16 @@ contains
       if (create) then
         call h5fcreate_f(path, H5F_ACC_TRUNC_F, file_id, err, access_prp=fapl)
       else
-        ! a file that is not one: said in one line, without HDF5's own
-        ! error stack (a damaged file fails the open below, also quietly)
-        call h5eset_auto_f(0, err_close)
+        ! a file that is not one: said in one line (snapshot_read has
+        ! silenced HDF5's own error stack; a damaged file fails the open)
         call h5fis_hdf5_f(path, is_hdf5, err)
         if (err >= 0 .and. .not. is_hdf5) then
-          call h5eset_auto_f(1, err_close)
           call h5pclose_f(fapl, err_close)
           errmsg = '"' // path // '" is not an HDF5 file (give a snap_NNNNN.h5 or ' // &
                    'checkpoint.h5 that sph wrote)'
           return
         end if
         call h5fopen_f(path, H5F_ACC_RDONLY_F, file_id, err, access_prp=fapl)
-        call h5eset_auto_f(1, err_close)
       end if
     end if
     call h5pclose_f(fapl, err_close)

@@ -263,7 +263,13 @@ def test_bad_snapshot_files_said_once_and_by_variable(scratch):
     assert p.returncode == 0, p.out
     cut = junk.parent / "cut.h5"
     cut.write_bytes((packed / "snap_00000.h5").read_bytes()[:3000])
+    bare = junk.parent / "bare.h5"                # HDF5, but not a snapshot
+    with h5py.File(bare, "w") as h:
+        h["x"] = np.zeros(3)
     cases = [(["input/circle2d.nml", f"run.restart={junk}"], "&run restart", "not an HDF5 file"),
+             (["input/circle2d.nml", f"run.restart={bare}"], "&run restart", "missing attribute"),
+             (["input/circle2d.nml", f"run.restart={junk.parent}"], "&run restart",
+              "is a directory"),
              (recipe + [f"particles.from={junk}"], "&particles from", "not an HDF5 file"),
              (recipe + [f"particles.from={cut}"], "&particles from", "damaged"),
              (["input/circle2d_convergence.nml", "particles.n=1257",
@@ -274,7 +280,7 @@ def test_bad_snapshot_files_said_once_and_by_variable(scratch):
         errors = [line for line in p.stderr.splitlines() if line.startswith("sph: error:")]
         assert p.returncode != 0 and len(errors) == 1, p.out
         assert variable in errors[0] and why in errors[0], errors
-        assert "HDF5-DIAG" not in p.out, p.out
+        assert "HDF5-DIAG" not in p.out and "mca_fbtl" not in p.out, p.out
         assert not d.exists()
     # the same file with its own count starts
     p = run_sph(["input/circle2d_convergence.nml", "particles.n=314", "run.max_steps=1",
