@@ -146,8 +146,10 @@ contains
     ! output directory, the echoed input, the time series and the index
     run%dir = trim(cfg%output%dir)
     call make_directory(run%dir, ok, errmsg)
+    if (.not. ok) errmsg = '&output dir = ''' // run%dir // ''': ' // errmsg // &
+                           ' (allowed: a directory that exists or can be created, writable)'
     if (.not. par_any_fail(env, ok, errmsg)) then
-      status = 1
+      status = 2                 ! bad input: nothing has been written
       return
     end if
     if (env%rank == 0) call echo_input(cfg_in, join_path(run%dir, 'input.nml'), ok, errmsg)

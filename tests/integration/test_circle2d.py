@@ -150,6 +150,22 @@ def test_help_and_defaults(scratch):
     assert p.returncode == 0, p.out
     assert (d / "run" / "timeseries.csv").exists()
     assert (d / "run" / "input.nml").exists()
+    # an option with another argument, which it would ignore, is refused
+    for opt in ("--help", "--defaults", "--input-tables"):
+        p = run_sph([opt, "junk"])
+        assert p.returncode == 2 and f"{opt} takes no other argument" in p.stderr, p.out
+
+
+def test_output_dir_that_cannot_be_made_is_bad_input(scratch):
+    # refused as bad input (status 2, the variable named), nothing written
+    d = scratch("outdir")
+    afile = d / "afile"
+    afile.write_text("x")
+    p = run_sph(["input/circle2d.nml", "particles.n=300", f"output.dir={afile / 'sub'}"], np=2)
+    errors = [line for line in p.stderr.splitlines() if line.startswith("sph: error:")]
+    assert p.returncode == 2 and len(errors) == 1, p.out
+    assert f"&output dir = '{afile / 'sub'}'" in errors[0] and "Not a directory" in errors[0]
+    assert afile.read_text() == "x"
 
 
 def test_blow_up_stops_with_diagnostic_and_keeps_outputs(scratch):
