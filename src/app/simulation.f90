@@ -10,7 +10,7 @@ module simulation
   use config, only: config_t, config_dim, config_echo, config_case, config_scaled, &
                     config_resolution_scale
   use input_params, only: VISCOSITIES, DIFFUSIONS, PRESSURE_GRADIENTS
-  use, intrinsic :: ieee_arithmetic, only: ieee_is_nan
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_nan, ieee_is_finite, ieee_is_normal
   use kernels, only: kernel_init, kernel_kind_of
   use eos, only: eos_init, EOS_LINEAR, EOS_TAIT
   use fluid_rhs, only: VISC_NONE, VISC_DELTA, VISC_MONAGHAN, DIFF_NONE, DIFF_MOLTENI, &
@@ -143,6 +143,16 @@ contains
     end if
     run%n_global = nint(par_sum(env, real(s%parts%n, wp)), i8)
 
+    ! first evaluation, before anything is written: the time-step limits to
+    ! report, and a set-up whose scales the arithmetic cannot hold refused
+    call solver_evaluate(s, env)
+    call solver_time_step(s, env, dt_est)
+    call check_setup(env, s, run%n_global, dt_est, ok, errmsg)
+    if (.not. par_any_fail(env, ok, errmsg)) then
+      status = 2
+      return
+    end if
+
     ! output directory, the echoed input, the time series and the index
     run%dir = trim(cfg%output%dir)
     call make_directory(run%dir, ok, errmsg)
@@ -173,9 +183,6 @@ contains
       end if
     end if
 
-    ! first evaluation: the time-step limits to report, and the initial state
-    call solver_evaluate(s, env)
-    call solver_time_step(s, env, dt_est)
     call print_start(cfg, env, s, run, dx, dt_est)
     if (restarting) then
       ! the largest acceleration of the step before (that of the evaluation
@@ -803,6 +810,43 @@ contains
       100 * (pairs / max(listed / 2, 1e-300_wp) - 1), ' % across the cuts, twice)'
     flush(output_unit)
   end subroutine print_end
+
+  !> The set-up is one the solver can run: at least MIN_PARTICLES particles,
+  !> a finite state and first right-hand side, a time step that is a normal
+  !> positive number.  Lengths, densities or speeds far from order one
+  !> (e.g. c0 = 1e200, radius = 1e-300) fail here, before any output,
+  !> instead of as a blow-up after the first snapshot.
+  subroutine check_setup(env, s, n_global, dt, ok, errmsg)
+    type(parallel_env_t), intent(in) :: env
+    type(solver_t), intent(in) :: s
+    integer(i8), intent(in) :: n_global
+    real(wp), intent(in) :: dt
+    logical, intent(out) :: ok
+    character(len=:), allocatable, intent(inout) :: errmsg
+    integer, parameter :: MIN_PARTICLES = 50       ! particles.n's own lower bound
+    character(len=200) :: line
+    integer :: n
+    n = s%parts%n
+    ok = .not. par_any(env, .not. (all(ieee_is_finite(s%parts%x(:, 1:n))) .and. &
+                                   all(ieee_is_finite(s%parts%u(:, 1:n))) .and. &
+                                   all(ieee_is_finite(s%parts%rho(1:n))) .and. &
+                                   all(ieee_is_finite(s%du(:, 1:n))) .and. &
+                                   all(ieee_is_finite(s%drho(1:n)))))
+    if (n_global < MIN_PARTICLES) then
+      write(line, '(a,i0,a,i0,a)') 'the set-up placed ', n_global, ' particles (at least ', &
+        MIN_PARTICLES, ' are needed)'
+      ok = .false.
+    else if (.not. ok .or. .not. (ieee_is_normal(dt) .and. dt > 0)) then
+      write(line, '(a,es11.3e3,a,es11.3e3,a,es11.3e3)') 'the initial state or its first ' // &
+        'right-hand side is not finite (h = ', s%rhs%kernel%h, ', c0 = ', s%rhs%c0, &
+        ', time step ', dt
+      line = trim(line) // ')'
+      ok = .false.
+    end if
+    if (.not. ok) errmsg = trim(line) // ': the lengths, densities and speeds of the ' // &
+      'case and &physics must stay within the range of double precision (scale them ' // &
+      'to order one)'
+  end subroutine check_setup
 
   !> A state that is no longer finite: say where and when, on every rank
   !> that has such a particle; earlier outputs stay as they were.

@@ -194,3 +194,18 @@ def test_blow_up_stops_with_diagnostic_and_keeps_outputs(scratch):
     assert all(len(l.split(",")) == ncol for l in lines[1:])
     ts = read_timeseries(d / "timeseries.csv")
     assert 4.0 < ts["time"][-1] < 4.5
+
+
+def test_scales_beyond_double_precision_refused_before_output(scratch):
+    # values each within its own range whose set-up the arithmetic cannot
+    # hold (c0^2 overflows; a radius of 1e-300 leaves no particle): refused
+    # after the first right-hand side, before anything is written (they
+    # were a blow-up after the first snapshot)
+    d = scratch("scales") / "never"
+    for extra, why in ((["physics.c0=1e200"], "first right-hand side is not finite"),
+                       (["circle2d.radius=1e-300"], "the set-up placed 0 particles")):
+        p = run_sph(["input/circle2d.nml", "particles.n=500", f"output.dir={d}"] + extra, np=2)
+        errors = [line for line in p.stderr.splitlines() if line.startswith("sph: error:")]
+        assert p.returncode == 2 and len(errors) == 1 and why in errors[0], p.out
+        assert "range of double precision" in errors[0]
+        assert not d.exists()
