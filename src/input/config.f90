@@ -528,6 +528,14 @@ contains
       status = ITEM_OK
       return
     end if
+    ! A subscript that is not one (unbalanced, a stray ':'): said as such
+    if (index(name, '(') > 0) then
+      if (.not. subscript_ok(name(index(name, '(') + 1:))) then
+        reason = 'has a malformed subscript'
+        hint = ': write e.g. ' // base // '(1:3,2) = ...'
+        return
+      end if
+    end if
     ! Is the index at fault rather than the value?  Try a value that fits.
     if (index(name, '(') > 0) then
       trial = c
@@ -563,6 +571,33 @@ contains
       hint = ': write .true. or .false.'
     end select
   end subroutine read_item
+
+  !> text is 'sub)' for a subscript: comma-separated whole numbers or
+  !> ranges lo:hi, and the closing parenthesis.
+  pure logical function subscript_ok(text) result(ok)
+    character(len=*), intent(in) :: text
+    character(len=:), allocatable :: inner, part
+    integer :: k, start, n
+    ok = .false.
+    n = len_trim(text)
+    if (n < 2) return
+    if (text(n:n) /= ')') return
+    inner = text(1:n - 1)
+    if (verify(inner, '0123456789:, ') /= 0) return
+    start = 1
+    do k = 1, len(inner) + 1
+      if (k <= len(inner)) then
+        if (inner(k:k) /= ',') cycle
+      end if
+      ! one part: a number, or lo:hi with both
+      part = trim(adjustl(inner(start:k - 1)))
+      if (len(part) == 0) return
+      if (part(1:1) == ':' .or. part(len(part):len(part)) == ':') return
+      if (index(part, ':') /= index(part, ':', back=.true.)) return
+      start = k + 1
+    end do
+    ok = .true.
+  end function subscript_ok
 
   !> Reads namelist text '&group ... /' into the component of c for group g.
   subroutine read_group(g, text, c, ios, iomsg)
