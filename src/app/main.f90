@@ -25,17 +25,19 @@ program sph
     allocate(character(len=len_arg) :: arg)
     call get_command_argument(k, arg)
     select case (arg)
-    case ('-h', '--help')
+    case ('-h', '--help', '--defaults', '--input-tables')
+      ! each prints and ends the run: an argument beside it would be ignored
       if (nargs /= 1) call fail(arg // ' takes no other argument (see ./sph --help)')
-      if (env%rank == 0) call print_usage(output_unit)
-      call par_stop(env, 0)
-    case ('--defaults')
-      if (nargs /= 1) call fail(arg // ' takes no other argument (see ./sph --help)')
-      if (env%rank == 0) call config_write_defaults(output_unit)
-      call par_stop(env, 0)
-    case ('--input-tables')
-      if (nargs /= 1) call fail(arg // ' takes no other argument (see ./sph --help)')
-      if (env%rank == 0) call config_write_input_tables(output_unit)
+      if (env%rank == 0) then
+        select case (arg)
+        case ('--defaults')
+          call config_write_defaults(output_unit)
+        case ('--input-tables')
+          call config_write_input_tables(output_unit)
+        case default
+          call print_usage(output_unit)
+        end select
+      end if
       call par_stop(env, 0)
     case default
       if (arg(1:min(1, len(arg))) == '-') then

@@ -481,9 +481,9 @@ contains
         p_probe(k) = probe_pressure(env, s%parts, s%rhs%kernel, run%probes(:, k))
       end if
     end do
-    if (present(warn_empty_probes)) then
+    if (present(warn_empty_probes) .and. env%rank == 0) then
       do k = 1, run%n_probes
-        if (warn_empty_probes .and. env%rank == 0 .and. ieee_is_nan(p_probe(k))) &
+        if (warn_empty_probes .and. ieee_is_nan(p_probe(k))) &
           write(output_unit, '(a,i0,a,3(g0.6,1x),a)') 'sph: warning: probe ', k, ' at ', &
             run%probes(:, k), 'has no particle within its kernel support: its pressure ' // &
             'is nan until fluid reaches it (output.probes)'
@@ -837,10 +837,9 @@ contains
         MIN_PARTICLES, ' are needed)'
       ok = .false.
     else if (.not. ok .or. .not. (ieee_is_normal(dt) .and. dt > 0)) then
-      write(line, '(a,es11.3e3,a,es11.3e3,a,es11.3e3)') 'the initial state or its first ' // &
+      write(line, '(a,es11.3e3,a,es11.3e3,a,es11.3e3,a)') 'the initial state or its first ' // &
         'right-hand side is not finite (h = ', s%rhs%kernel%h, ', c0 = ', s%rhs%c0, &
-        ', time step ', dt
-      line = trim(line) // ')'
+        ', time step ', dt, ')'
       ok = .false.
     end if
     if (.not. ok) errmsg = trim(line) // ': the lengths, densities and speeds of the ' // &

@@ -528,16 +528,14 @@ contains
       status = ITEM_OK
       return
     end if
-    ! A subscript that is not one (unbalanced, a stray ':'): said as such
     if (index(name, '(') > 0) then
+      ! A subscript that is not one (unbalanced, a stray ':'): said as such
       if (.not. subscript_ok(name(index(name, '(') + 1:))) then
         reason = 'has a malformed subscript'
         hint = ': write e.g. ' // base // '(1:3,2) = ...'
         return
       end if
-    end if
-    ! Is the index at fault rather than the value?  Try a value that fits.
-    if (index(name, '(') > 0) then
+      ! Is the index at fault rather than the value?  Try a value that fits.
       trial = c
       call read_group(g, '&' // group // ' ' // name // ' = ' // trim(NEUTRAL(vars(v)%type)) &
                       // ' /', trial, ios, iomsg)

@@ -44,7 +44,7 @@ module snapshot_io
                   h5kind_to_type, H5_INTEGER_KIND, &
                   h5gget_info_f, h5lget_name_by_idx_f, H5_INDEX_NAME_F, H5_ITER_INC_F
   use fileutil, only: temp_path, rename_file, remove_file, agree_ok, base_name, dir_name, &
-                      file_exists, text_buffer_t, text_append, write_file_atomic
+                      file_exists, is_directory, text_buffer_t, text_append, write_file_atomic
   implicit none
   private
   public :: snapshot_field_t, snapshot_source_t, snapshot_t, xdmf_index_t
@@ -502,8 +502,7 @@ contains
         errmsg = 'no file "' // filename // '"'
         exit io
       end if
-      inquire(file=filename // '/.', exist=exists)
-      if (exists) then                         ! MPI-IO would fail at length
+      if (is_directory(filename)) then        ! MPI-IO would fail at length
         errmsg = '"' // filename // '" is a directory, not a snapshot file'
         exit io
       end if
