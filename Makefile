@@ -57,7 +57,7 @@ LIB_OBJ   := $(sort $(addprefix $(BUILD)/,$(addsuffix .o,$(basename $(notdir $(L
 vpath %.f90 $(SRC_DIRS) tests
 vpath %.F90 $(SRC_DIRS)
 
-.PHONY: all sph debug asan test unit bench decomp-study validate validate-long input-doc clean
+.PHONY: all sph debug asan test unit bench bench-pairloop decomp-study validate validate-long input-doc clean
 all: sph
 
 # copy then rename: replaces ./sph atomically, even while it is running
@@ -216,6 +216,20 @@ validate-long: sph
 # runs both alternately, printing the speed-up per case.
 bench: sph
 	$(PYTHON) tests/bench/run_bench.py $(BENCH_ARGS) $(if $(BASELINE),--baseline $(BASELINE))
+
+# The standard operators' pair loop alone, on one core: the solver's half
+# list, the pair terms on contiguous data (the least any loop pays) and 4 x 8
+# cluster pairs, each in double and single precision (seconds; needs an idle
+# core); doc/ellipsoid3d.md, "What three times faster would take".
+# PAIRLOOP_ARGS: the lattice's side (74: 212,472 particles).
+PAIRLOOP_SRC := $(addprefix tests/bench/pairloop/,pairloop_layout.f90 pairloop_double.f90 \
+                  pairloop_single.f90 pairloop_bench.f90)
+bench-pairloop: build/bench/pairloop_bench
+	build/bench/pairloop_bench $(PAIRLOOP_ARGS)
+
+build/bench/pairloop_bench: $(PAIRLOOP_SRC) tests/bench/pairloop/pairloop_kernels.inc
+	@mkdir -p build/bench
+	$(FC) $(OPTFLAGS) $(WFLAGS) -Jbuild/bench -Ibuild/bench -Itests/bench/pairloop $(PAIRLOOP_SRC) -o $@
 
 # Halo copies, partner ranks, bytes and messages per step and imbalance of
 # the slab, METIS and curve decompositions at 2..64 ranks (oversubscribed:
