@@ -238,30 +238,18 @@ contains
     real(dp), intent(inout) :: x(:, :), rec(:, :)
     integer, allocatable, intent(out) :: start(:), lst(:)
     integer, intent(out) :: longest
-    integer, allocatable :: cell(:), cstart(:), perm(:), pos(:)
-    integer :: nc, i, j, c, a, b, m, dd(3), ix(3), cn
+    integer, allocatable :: cell(:), cstart(:), perm(:)
+    integer :: nc, i, j, a, b, m, ix(3), cn
     real(dp) :: lo
     ! a layer of empty cells around: every cell has its 26 neighbours
     lo = minval(x) - RLIST
     nc = ceiling((maxval(x) - lo) / RLIST) + 2
-    allocate(cell(n), cstart(nc**3 + 1), perm(n))
+    allocate(cell(n))
     do i = 1, n
       ix = floor((x(:, i) - lo) / RLIST)
       cell(i) = 1 + ix(1) + nc * (ix(2) + nc * ix(3))
     end do
-    cstart = 0
-    do i = 1, n
-      cstart(cell(i) + 1) = cstart(cell(i) + 1) + 1
-    end do
-    cstart(1) = 1
-    do c = 2, nc**3 + 1
-      cstart(c) = cstart(c) + cstart(c - 1)
-    end do
-    pos = cstart
-    do i = 1, n
-      perm(pos(cell(i))) = i
-      pos(cell(i)) = pos(cell(i)) + 1
-    end do
+    call bucket_order(cell, nc**3, cstart, perm)
     x = x(:, perm)
     rec = rec(:, perm)
     cell = cell(perm)
@@ -270,11 +258,8 @@ contains
     longest = 0
     do i = 1, n
       start(i) = m + 1
-      c = cell(i) - 1
-      ix = [mod(c, nc), mod(c / nc, nc), c / nc**2]
       do a = 0, 26
-        dd = [mod(a, 3) - 1, mod(a / 3, 3) - 1, a / 9 - 1]
-        cn = 1 + (ix(1) + dd(1)) + nc * ((ix(2) + dd(2)) + nc * (ix(3) + dd(3)))
+        cn = around(cell(i), nc, a)
         do j = max(cstart(cn), i + 1), cstart(cn + 1) - 1
           if (sum((x(:, i) - x(:, j))**2) < RLIST**2) then
             m = m + 1
@@ -369,29 +354,17 @@ contains
     real(dp), allocatable, intent(out) :: cd(:, :)
     integer, allocatable, intent(out) :: slot_of(:)
     integer, intent(out) :: nc8
-    integer, allocatable :: col(:), cstart(:), perm(:), pos(:), order(:)
+    integer, allocatable :: col(:), cstart(:), perm(:), order(:)
     real(dp), allocatable :: z(:)
     real(dp) :: lo
     integer :: ncol, i, c, m, k, slot, nslot
     lo = minval(x) - 1
     ncol = ceiling((maxval(x) - lo) / COLUMN) + 1
-    allocate(col(n), cstart(ncol**2 + 1), perm(n))
+    allocate(col(n))
     do i = 1, n
       col(i) = 1 + floor((x(1, i) - lo) / COLUMN) + ncol * floor((x(2, i) - lo) / COLUMN)
     end do
-    cstart = 0
-    do i = 1, n
-      cstart(col(i) + 1) = cstart(col(i) + 1) + 1
-    end do
-    cstart(1) = 1
-    do c = 2, ncol**2 + 1
-      cstart(c) = cstart(c) + cstart(c - 1)
-    end do
-    pos = cstart
-    do i = 1, n
-      perm(pos(col(i))) = i
-      pos(col(i)) = pos(col(i)) + 1
-    end do
+    call bucket_order(col, ncol**2, cstart, perm)
     nslot = 0
     do c = 1, ncol**2
       nslot = nslot + 8 * ((cstart(c + 1) - cstart(c) + 7) / 8)
@@ -436,8 +409,8 @@ contains
     real(dp), intent(in) :: cd(:, :), radius
     integer, allocatable, intent(out) :: pstart(:), plist(:)
     real(dp), allocatable :: box(:, :, :)
-    integer, allocatable :: cell(:), cstart(:), order(:), pos(:)
-    integer :: a, b, k, m, nc, c, ix(3), dd(3), cn, q
+    integer, allocatable :: cell(:), cstart(:), order(:)
+    integer :: a, b, k, m, nc, ix(3), cn, q
     real(dp) :: lo, side
     allocate(box(3, 2, nc8))
     do a = 1, nc8
@@ -454,33 +427,18 @@ contains
     side = radius + maxval(box(:, 2, :) - box(:, 1, :))
     lo = minval(box(:, 1, :)) - side
     nc = ceiling((maxval(box(:, 1, :)) - lo) / side) + 2
-    allocate(cell(nc8), cstart(nc**3 + 1), order(nc8))
+    allocate(cell(nc8))
     do a = 1, nc8
       ix = floor((box(:, 1, a) - lo) / side)
       cell(a) = 1 + ix(1) + nc * (ix(2) + nc * ix(3))
     end do
-    cstart = 0
-    do a = 1, nc8
-      cstart(cell(a) + 1) = cstart(cell(a) + 1) + 1
-    end do
-    cstart(1) = 1
-    do c = 2, nc**3 + 1
-      cstart(c) = cstart(c) + cstart(c - 1)
-    end do
-    pos = cstart
-    do a = 1, nc8
-      order(pos(cell(a))) = a
-      pos(cell(a)) = pos(cell(a)) + 1
-    end do
+    call bucket_order(cell, nc**3, cstart, order)
     allocate(pstart(nc8 + 1), plist(nc8 * 200))
     m = 0
     do a = 1, nc8
       pstart(a) = m + 1
-      c = cell(a) - 1
-      ix = [mod(c, nc), mod(c / nc, nc), c / nc**2]
       do q = 0, 26
-        dd = [mod(q, 3) - 1, mod(q / 3, 3) - 1, q / 9 - 1]
-        cn = 1 + (ix(1) + dd(1)) + nc * ((ix(2) + dd(2)) + nc * (ix(3) + dd(3)))
+        cn = around(cell(a), nc, q)
         do k = cstart(cn), cstart(cn + 1) - 1
           b = order(k)
           if (b < a) cycle
@@ -496,6 +454,39 @@ contains
     end do
     pstart(nc8 + 1) = m + 1
   end subroutine cluster_pairs
+
+  !> Neighbour q (0..26) of cell c of an nc^3 grid numbered 1 + ix + nc (iy
+  !> + nc iz): the cell at offset (mod(q, 3), mod(q/3, 3), q/9) - 1.
+  pure integer function around(c, nc, q) result(cn)
+    integer, intent(in) :: c, nc, q
+    integer :: ix(3), dd(3)
+    ix = [mod(c - 1, nc), mod((c - 1) / nc, nc), (c - 1) / nc**2]
+    dd = [mod(q, 3) - 1, mod(q / 3, 3) - 1, q / 9 - 1]
+    cn = 1 + (ix(1) + dd(1)) + nc * ((ix(2) + dd(2)) + nc * (ix(3) + dd(3)))
+  end function around
+
+  !> Items 1..size(key) by key (1..nkeys), in index order within a key:
+  !> those of key k are order(kstart(k):kstart(k+1)-1).
+  subroutine bucket_order(key, nkeys, kstart, order)
+    integer, intent(in) :: key(:), nkeys
+    integer, allocatable, intent(out) :: kstart(:), order(:)
+    integer, allocatable :: pos(:)
+    integer :: i, k
+    allocate(kstart(nkeys + 1), order(size(key)))
+    kstart = 0
+    do i = 1, size(key)
+      kstart(key(i) + 1) = kstart(key(i) + 1) + 1
+    end do
+    kstart(1) = 1
+    do k = 2, nkeys + 1
+      kstart(k) = kstart(k) + kstart(k - 1)
+    end do
+    pos = kstart
+    do i = 1, size(key)
+      order(pos(key(i))) = i
+      pos(key(i)) = pos(key(i)) + 1
+    end do
+  end subroutine bucket_order
 
   !> The cluster sums back in particle order.
   function cluster_sums(acc_c, slot_of) result(s)
