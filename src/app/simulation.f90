@@ -488,6 +488,13 @@ contains
             run%probes(:, k), 'has no particle within its kernel support: its pressure ' // &
             'is nan until fluid reaches it (output.probes)'
       end do
+      ! a position set beyond n_probes is kept (the echo of the input shows
+      ! it) but not sampled: likely a forgotten n_probes
+      do k = run%n_probes + 1, size(run%probes, 2)
+        if (warn_empty_probes .and. any(abs(run%probes(:, k)) > 0)) &
+          write(output_unit, '(a,i0,a,i0,a)') 'sph: warning: output.probes(1:3,', k, &
+            ') is set but output.n_probes = ', run%n_probes, ': that probe is not sampled'
+      end do
     end if
     call run%problem%sample(env, t, s%parts, s%rhs%kernel, case_values)
     row = [t, real(step, wp), dt, s%dc%imbalance, kinetic_energy(env, s%parts), &

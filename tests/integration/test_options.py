@@ -128,3 +128,17 @@ def test_probe_outside_the_fluid_is_warned_and_nan(scratch):
     ts = read_timeseries(d / "timeseries.csv")
     assert all(math.isnan(v) for v in ts["p_probe_2"])
     assert not any(math.isnan(v) for v in ts["p_probe_1"])
+
+
+def test_probe_beyond_n_probes_is_warned(scratch):
+    # a position set for probe 3 while n_probes = 1 (a forgotten n_probes):
+    # the run goes on, says so at start-up, and samples probe 1 only
+    d = scratch("probe_beyond") / "run"
+    p = run_sph(["input/circle2d.nml", "particles.n=400", "run.t_end=0.05",
+                 "output.n_probes=1", "output.probes(1:3,3)=0.5,0,0", f"output.dir={d}"], np=2)
+    assert p.returncode == 0, p.out
+    warnings = [line for line in p.stdout.splitlines() if line.startswith("sph: warning:")]
+    assert warnings == ["sph: warning: output.probes(1:3,3) is set but output.n_probes = 1: "
+                        "that probe is not sampled"], p.stdout
+    ts = read_timeseries(d / "timeseries.csv")
+    assert "p_probe_1" in ts and not any(k.startswith("p_probe_3") for k in ts)
