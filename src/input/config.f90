@@ -333,9 +333,21 @@ contains
     character(len=40), allocatable :: plain(:)
     integer, allocatable :: plain_line(:)
     character(len=:), allocatable :: name, value, reason, hint, head
-    integer :: i, last, status, line, k
+    integer :: i, last, status, line, k, v, e
+    type(var_t), allocatable :: vars(:)
+    ! per array variable of the group, the line that set each element (0:
+    ! none yet), in array element order, from elem_first(v)
+    integer, allocatable :: elem_line(:), elem_first(:)
+    logical, allocatable :: now(:)
 
     call list_groups(groups)
+    call list_vars(vars)
+    allocate(elem_first(size(vars)), elem_line(0), now(0))
+    do v = 1, size(vars)
+      elem_first(v) = size(elem_line) + 1
+      if (vars(v)%group == g .and. vars(v)%dims(1) > 0) &
+        elem_line = [elem_line, spread(0, 1, element_count(vars(v)))]
+    end do
     call split_items(body, starts, eqs)
     last = len(body)
     if (size(starts) > 0) last = starts(1) - 1
@@ -375,9 +387,89 @@ contains
         call fail(err, path, head // ' ' // reason, line, hint)
         return
       end if
+      ! An element of an array set twice is the same slip as a scalar
+      v = var_index(g, base_name(name))
+      if (v > 0) then
+        if (vars(v)%dims(1) > 0) then
+          now = elements_set(trim(groups(g)%name), vars(v), name, value, cfg)
+          associate(seen => elem_line(elem_first(v):elem_first(v) + size(now) - 1))
+          do e = 1, size(now)
+            if (now(e) .and. seen(e) > 0) then
+              call fail(err, path, '&' // trim(groups(g)%name) // ' ' // &
+                        element_name(vars(v), e) // ' is set twice', line, &
+                        ': it was already set on line ' // int_str(seen(e)) // '; keep one')
+              return
+            end if
+          end do
+          where (now) seen = line
+          end associate
+        end if
+      end if
       call set_origin(origins, trim(groups(g)%name) // '.' // base_name(name), line)
     end do
   end subroutine read_group_body
+
+  !> The elements of array variable v (of group `group`) that the item
+  !> `name = value`, read already without error, sets, in array element
+  !> order: read once over zeros and once over ones, an element is set where
+  !> both reads give the same value (value_text is exact).
+  function elements_set(group, v, name, value, c) result(set)
+    character(len=*), intent(in) :: group, name, value
+    type(var_t), intent(in) :: v
+    type(config_t), intent(in) :: c
+    logical, allocatable :: set(:)
+    type(config_t) :: c0, c1
+    character(len=:), allocatable :: t0, t1
+    character(len=256) :: iomsg
+    real(wp) :: x
+    integer :: ios, n
+    n = element_count(v)
+    c0 = c
+    c1 = c
+    iomsg = ''
+    call read_group(v%group, '&' // group // ' ' // trim(v%name) // ' = ' // int_str(n) // &
+                    '*0 /', c0, ios, iomsg)
+    call read_group(v%group, '&' // group // ' ' // trim(v%name) // ' = ' // int_str(n) // &
+                    '*1 /', c1, ios, iomsg)
+    call read_group(v%group, '&' // group // ' ' // name // ' = ' // value // ' /', c0, ios, iomsg)
+    call read_group(v%group, '&' // group // ' ' // name // ' = ' // value // ' /', c1, ios, iomsg)
+    call get_value(c0, v, t0, x)
+    call get_value(c1, v, t1, x)
+    set = list_items(t0, n) == list_items(t1, n)
+  end function elements_set
+
+  !> The number of elements of array variable v.
+  pure integer function element_count(v)
+    type(var_t), intent(in) :: v
+    element_count = v%dims(1) * max(1, v%dims(2))
+  end function element_count
+
+  !> name(i) or name(i,k) of element e (in array element order) of v.
+  function element_name(v, e) result(s)
+    type(var_t), intent(in) :: v
+    integer, intent(in) :: e
+    character(len=:), allocatable :: s
+    s = trim(v%name) // '(' // int_str(mod(e - 1, v%dims(1)) + 1)
+    if (v%dims(2) > 0) s = s // ',' // int_str((e - 1) / v%dims(1) + 1)
+    s = s // ')'
+  end function element_name
+
+  !> The n comma-separated items of text (value_text of an array), trimmed.
+  function list_items(text, n) result(items)
+    character(len=*), intent(in) :: text
+    integer, intent(in) :: n
+    character(len=40) :: items(n)
+    integer :: k, start, comma
+    items = ''
+    start = 1
+    do k = 1, n
+      comma = index(text(start:), ',')
+      if (comma == 0) comma = len(text) - start + 2
+      items(k) = adjustl(text(start:start + comma - 2))
+      start = start + comma
+      if (start > len(text)) exit
+    end do
+  end function list_items
 
   ! ------------------------------------------------------------------------
   ! Overrides

@@ -4,7 +4,7 @@
 !> gives for its own group, case_base).  The cases see the groups they need.
 module input_params
   use kinds, only: wp
-  use input_text, only: quoted, real_str, int_str, lower
+  use input_text, only: quoted, real_str, real_list, int_str, lower
   use input_var, only: var_t, T_INT, T_REAL, T_STRING, T_LOGICAL, LO_NONE, LO_GT, LO_GE, &
                        HI_NONE, HI_LE, CH_NONE, SCALAR
   implicit none
@@ -736,6 +736,9 @@ contains
       text = logical_text(p%snapshots)
     case ('n_probes')
       text = int_str(p%n_probes)
+    case ('probes')
+      ! all of them, in array element order
+      text = real_list(reshape(p%probes, [size(p%probes)]))
     case default
       text = ''
     end select
