@@ -177,11 +177,12 @@ contains
   end subroutine split_items
 
   !> Where the name before the '=' at body(eq:eq) starts, 0 if there is no
-  !> name (blanks and an index in parentheses may sit between).
+  !> name (blanks and an index in parentheses, closed or not, may sit
+  !> between).
   integer function name_start(body, eq)
     character(len=*), intent(in) :: body
     integer, intent(in) :: eq
-    integer :: j, depth
+    integer :: j, k, depth
     name_start = 0
     j = eq - 1
     do while (j >= 1)
@@ -202,6 +203,21 @@ contains
         if (body(j:j) /= ' ') exit
         j = j - 1
       end do
+    else if (scan(body(j:j), '0123456789:,') > 0) then
+      ! an index left open, as in probes(1:3,2 = ...: the name with it, so
+      ! that this item reports its malformed subscript, not the one before
+      k = j
+      do while (k > 1)
+        if (scan(body(k:k), '0123456789:, ') == 0) exit
+        k = k - 1
+      end do
+      if (body(k:k) == '(') then
+        j = k - 1
+        do while (j >= 1)
+          if (body(j:j) /= ' ') exit
+          j = j - 1
+        end do
+      end if
     end if
     do while (j >= 1)
       if (.not. is_name_char(body(j:j))) exit
