@@ -412,7 +412,8 @@ contains
   !> The elements of array variable v (of group `group`) that the item
   !> `name = value`, read already without error, sets, in array element
   !> order: read once over zeros and once over ones, an element is set where
-  !> both reads give the same value (value_text is exact).
+  !> both reads give the same value (value_text is exact).  Numeric arrays
+  !> only: the inputs have no others.
   function elements_set(group, v, name, value, c) result(set)
     character(len=*), intent(in) :: group, name, value
     type(var_t), intent(in) :: v
