@@ -15,10 +15,9 @@
 !> are checked against the double half list (the reference): the program
 !> stops with status 1 if any structure disagrees beyond its precision.
 program pairloop_bench
-  use, intrinsic :: iso_fortran_env, only: dp => real64, sp => real32, int64
-  use pairloop_layout, only: LANES, REC_LEN, R_RHO, R_P, R_VOL, R_IRHO, P_DX, P_DZ, P_R2, &
-                             P_U, P_W, P_RHO, P_P, P_VOL, P_IRHO, P_COLS, Q_X, Q_Z, Q_U, Q_W, &
-                             Q_RHO, Q_P, Q_VOL, Q_IRHO, Q_COLS
+  use pairloop_layout, only: dp, sp, i8, LANES, REC_LEN, R_RHO, R_P, R_VOL, R_IRHO, P_DX, &
+                             P_DZ, P_R2, P_U, P_W, P_RHO, P_P, P_VOL, P_IRHO, P_COLS, Q_X, Q_Z, &
+                             Q_U, Q_W, Q_RHO, Q_P, Q_VOL, Q_IRHO, Q_COLS
   use pairloop_double, only: half_rows_d => half_rows, body_only_d => body_only, &
                              clusters_d => clusters
   use pairloop_single, only: half_rows_s => half_rows, body_only_s => body_only, &
@@ -45,7 +44,7 @@ program pairloop_bench
   integer, allocatable :: slot_of(:), ps_support(:), pl_support(:), ps_list(:), pl_list(:)
   real(dp) :: times(N_VARIANTS, REPS), err(N_VARIANTS), s2, cker
   character(len=40) :: names(N_VARIANTS)
-  integer(int64) :: pairs_in, floor_pairs, lanes_done(N_VARIANTS)
+  integer(i8) :: pairs_in, floor_pairs, lanes_done(N_VARIANTS)
   integer :: n, nside, longest, rep, v, passes, padded, nc8
   character(len=32) :: arg
 
@@ -92,7 +91,8 @@ program pairloop_bench
   ! round-off (1.4e-15 measured at 212,472 particles), single to its own
   ! (5.5e-6 measured)
   if (maxval(err([5, 7])) > 1e-12_dp .or. maxval(err([2, 6, 8])) > 1e-4_dp) then
-    write (*, '(a, 5es9.1)') 'pairloop_bench: the loops disagree with the reference: ', err([2, 5, 6, 7, 8])
+    write (*, '(a, 5es9.1)') 'pairloop_bench: the loops disagree with the reference: ', &
+      err([2, 5, 6, 7, 8])
     error stop 1
   end if
 
@@ -101,7 +101,7 @@ contains
   !> One timed run of variant v; the sums checked against the reference.
   real(dp) function run_variant(v) result(seconds)
     integer, intent(in) :: v
-    integer(int64) :: t0, t1, rate
+    integer(i8) :: t0, t1, rate
     integer :: pass
     pass = 0
     call system_clock(t0, rate)
@@ -172,8 +172,8 @@ contains
     integer :: w
     best = minval(times, dim=2)
     best(3:4) = best(3:4) * real(pairs_in, dp) / (passes * floor_pairs)
-    write (*, '(a)') '', '| loop | s per pass | ns per pair | speed | lanes per pair | sums against the reference |', &
-      '|---|---|---|---|---|---|'
+    write (*, '(a)') '', '| loop | s per pass | ns per pair | speed | lanes per pair | ' // &
+      'sums against the reference |', '|---|---|---|---|---|---|'
     do w = 1, N_VARIANTS
       ns = 1e9_dp * best(w) / pairs_in
       lanes = '1'
@@ -182,8 +182,8 @@ contains
       check = '-'
       if (w == 1) check = '(reference)'
       if (w /= 1 .and. w /= 3 .and. w /= 4) write (check, '(es8.1)') err(w)
-      write (*, '(3a, f7.4, a, f6.2, a, f5.2, 5a)') '| ', trim(names(w)), ' | ', best(w), ' | ', ns, &
-        ' | ', best(1) / best(w), ' | ', trim(adjustl(lanes)), ' | ', trim(check), ' |'
+      write (*, '(3a, f7.4, a, f6.2, a, f5.2, 5a)') '| ', trim(names(w)), ' | ', best(w), ' | ', &
+        ns, ' | ', best(1) / best(w), ' | ', trim(adjustl(lanes)), ' | ', trim(check), ' |'
     end do
   end subroutine report
 
@@ -287,7 +287,7 @@ contains
     end do
   end subroutine move_particles
 
-  integer(int64) function count_in_support(n, x, start, lst) result(c)
+  integer(i8) function count_in_support(n, x, start, lst) result(c)
     integer, intent(in) :: n, start(:), lst(:)
     real(dp), intent(in) :: x(:, :)
     integer :: i, q
@@ -306,7 +306,7 @@ contains
     integer, intent(in) :: nrow
     real(dp), allocatable, intent(out) :: pd(:, :), own(:, :)
     integer, allocatable, intent(out) :: rs(:)
-    integer(int64), intent(out) :: pairs
+    integer(i8), intent(out) :: pairs
     integer, intent(out) :: padded
     integer :: r, i, q, j, l, first
     real(dp) :: d(3), r2

@@ -1,10 +1,9 @@
 !> The pair-loop benchmark's loops in single precision
 !> (pairloop_kernels.inc, compiled once per real kind).
 module pairloop_single
-  use, intrinsic :: iso_fortran_env, only: int64, rk => real32
-  use pairloop_layout, only: LANES, REC_LEN, R_RHO, R_P, R_VOL, R_IRHO, P_DX, P_DY, P_DZ, P_R2, &
-                             P_U, P_V, P_W, P_RHO, P_P, P_VOL, P_IRHO, Q_X, Q_Y, Q_Z, Q_U, Q_V, &
-                             Q_W, Q_RHO, Q_P, Q_VOL, Q_IRHO
+  use pairloop_layout, only: rk => sp, i8, LANES, REC_LEN, R_RHO, R_P, R_VOL, R_IRHO, &
+                             P_DX, P_DY, P_DZ, P_R2, P_U, P_V, P_W, P_RHO, P_P, P_VOL, P_IRHO, &
+                             Q_X, Q_Y, Q_Z, Q_U, Q_V, Q_W, Q_RHO, Q_P, Q_VOL, Q_IRHO
   implicit none
   private
   public :: half_rows, body_only, clusters
