@@ -10,8 +10,12 @@ kinetic-energy change at the end; then the observed order between successive
 resolutions, log(e_i/e_i+1)/log(dx_i/dx_i+1), and the least-squares slope of
 log e against log dx.  Writes the errors against dx as a log-log PNG.
 
+Runs of different lengths compare over a common interval [0, T] with
+--until T (T in the flow's time, t A0).
+
 Example:
   postproc/convergence runs/c1k runs/c5k runs/c20k runs/c80k -o conv.png
+  postproc/convergence runs/c1k runs/c5k runs/c20k runs/c80k runs/c320k --until 0.5
 """
 import argparse
 import json
@@ -61,11 +65,20 @@ def command(argv, prog="postproc/convergence"):
                     help="the log-log plot (default %(default)s)")
     ap.add_argument("--json", metavar="FILE", help="also write the table and orders as JSON")
     ap.add_argument("--title", help="title of the plot")
+    ap.add_argument("--until", type=float, metavar="T",
+                    help="compare the runs over [0, T] only, T in the flow's time (t A0): "
+                         "runs that go further are cut at T, e.g. four full levels and "
+                         "a fifth stopped at a checkpoint")
     sp.add_filter_options(ap)
     args = ap.parse_args(argv)
     if len(args.run_dirs) < 2:
         raise sp.PostprocError("give at least two run directories (resolutions)")
-    table = study([sp.Run(d) for d in args.run_dirs], args, args.output, args.title)
+    if args.until is not None and not args.until > 0:
+        raise sp.PostprocError(f"--until {args.until:g}: give a time above 0")
+    runs = [sp.Run(d) for d in args.run_dirs]
+    if args.until is not None:
+        runs = [r.window(args.until) for r in runs]
+    table = study(runs, args, args.output, args.title)
     if args.json:
         with open(args.json, "w") as f:
             json.dump(table, f, indent=1)
@@ -86,7 +99,7 @@ def study(runs, fopts, output="convergence.png", title=None, echo=print):
     ends = {round(float(r.time[-1]), 9) for r in runs}
     if len(ends) > 1:
         print(f"warning: the runs end at different times {sorted(ends)}: their errors are not "
-              "comparable", file=sys.stderr)
+              "comparable (--until T compares them over [0, T])", file=sys.stderr)
     runs = sorted(runs, key=lambda r: r.n_particles)
     rows = collect(runs, fopts)
     case = runs[0].case

@@ -324,6 +324,34 @@ class Run:
         out["attrs"] = self.snapshot_attrs(path)
         return out
 
+    def window(self, until):
+        """Cuts the time series at t rate = until (in the case's flow time,
+        e.g. t A0), so that runs of different lengths, such as a level stopped
+        at a checkpoint, are compared over the same interval [0, until]: the
+        rows before it, and a last row at exactly `until` interpolated
+        linearly between the two rows around it.  Raises PostprocError when
+        the run ends before `until`."""
+        c = self.case
+        t_cut = until / c.rate
+        t = self.time
+        # a run asked to end at `until` ends there up to the rounding of t
+        if t[-1] < t_cut * (1 - 1e-9):
+            raise PostprocError(f"'{self.path}' ends at {c.time_label} = {t[-1] * c.rate:g}, "
+                                f"before --until {until:g}")
+        k = int(np.searchsorted(t, t_cut, side="right"))     # rows t[:k] <= t_cut
+        if k < 2:
+            raise PostprocError(f"'{self.path}' has fewer than two rows with {c.time_label} "
+                                f"<= {until:g}")
+        cut = {name: v[:k] for name, v in self.ts.items()}
+        if k < len(t) and t[k - 1] < t_cut:
+            w = (t_cut - t[k - 1]) / (t[k] - t[k - 1])
+            cut = {name: np.append(v, (1 - w) * self.ts[name][k - 1] + w * self.ts[name][k])
+                   for name, v in cut.items()}
+            cut["time"][-1] = t_cut
+        self.ts = cut
+        self.time = cut["time"]
+        return self
+
     @property
     def n_particles(self):
         if self._n is None:

@@ -340,6 +340,61 @@ def test_convergence_script_orders(tiny_run, tiny_run_5000):
     assert f"{res['orders']['vel']['pairs'][0]:.2f}" in line
 
 
+def test_convergence_until_compares_over_a_common_window(scratch, tiny_run, tiny_run_5000):
+    # --until T cuts every run at T: the same errors as runs whose time series
+    # stop there.  The reference: copies of the two runs with timeseries.csv
+    # cut by hand at a row time (no interpolation), through postproc/errors.
+    d1, _ = tiny_run
+    d2, _ = tiny_run_5000
+    tmp = scratch("postproc_until")
+    script("convergence", d1, d2, "-o", tmp / "a.png", "--json", tmp / "a.json")
+    full = json.loads((tmp / "a.json").read_text())
+    same = script("convergence", d1, d2, "-o", tmp / "b.png", "--until", 0.5,
+                  "--json", tmp / "b.json")
+    assert "warning" not in same.stderr, same.stderr
+    assert json.loads((tmp / "b.json").read_text())["rows"] == full["rows"]   # T = the end
+
+    cut_rows = []
+    for d in (d1, d2):
+        lines = (d / "timeseries.csv").read_text().splitlines()
+        t = read_timeseries(d / "timeseries.csv")["time"]
+        k = int(np.searchsorted(t, 0.3))          # first row at t >= 0.3
+        c = tmp / d.parent.name
+        c.mkdir()
+        (c / "timeseries.csv").write_text("\n".join(lines[:k + 2]) + "\n")
+        (c / "input.nml").write_text((d / "input.nml").read_text())
+        (c / "snap_00000.h5").symlink_to(d / "snap_00000.h5")
+        cut_rows.append((c, t[k]))
+    # both cut at the larger of the two row times, the other run interpolated
+    t_cut = max(tc for _, tc in cut_rows)
+    c_exact = [c for c, tc in cut_rows if tc == t_cut][0]
+    d_exact = d1 if c_exact.name == d1.parent.name else d2
+    script("convergence", d1, d2, "-o", tmp / "c.png", "--until", repr(t_cut),
+           "--json", tmp / "c.json")
+    row = [r for r in json.loads((tmp / "c.json").read_text())["rows"]
+           if r["run"] == str(d_exact)][0]
+    ref = json.loads(script("errors", c_exact, "--json").stdout)
+    assert math.isclose(row["t_end"], t_cut, rel_tol=1e-12)
+    for name, key in (("vel", "vel"), ("pos", "pos"), ("ke_mean", "ke"), ("p_filt", "p_filt")):
+        assert math.isclose(row["errors"][name], ref["mean"][key], rel_tol=1e-12), name
+    assert row["errors"]["vel"] < 0.95 * full["rows"][0 if d_exact == d1 else 1]["errors"]["vel"]
+
+    # between two rows the last row is interpolated linearly to t = T exactly
+    run = sp.Run(d1)
+    t, v = run.time, run.ts["rms_velocity_error"]
+    k = int(np.searchsorted(t, 0.3))
+    mid = 0.5 * (t[k - 1] + t[k])
+    w = sp.Run(d1).window(mid)
+    assert len(w.time) == k + 1 and w.time[-1] == mid
+    assert math.isclose(w.ts["rms_velocity_error"][-1], 0.5 * (v[k - 1] + v[k]), rel_tol=1e-12)
+
+    # a run that ends before T, and T <= 0, are refused
+    for until, msg in ((0.7, "ends at t A0 = 0.5, before --until 0.7"),
+                       (0, "--until 0: give a time above 0")):
+        p = script("convergence", d1, d2, "--until", until, check=False)
+        assert p.returncode == 2 and msg in p.stderr and p.stdout == "", p.stderr
+
+
 def test_plots_circle_and_pressure(tiny_run):
     d, _ = tiny_run
     for what, args in (("circle", [d]), ("pressure", [d, d])):
