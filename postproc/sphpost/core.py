@@ -176,6 +176,13 @@ class CaseInfo:
         return self.name.startswith("square")
 
 
+def patch_volume(case):
+    """The initial patch's area pi R^2 (circle2d), volume 4/3 pi R^3
+    (ellipsoid3d) or area L^2 (squares); the flows keep it."""
+    return {"circle2d": math.pi * case.length**2,
+            "ellipsoid3d": 4 / 3 * math.pi * case.length**3}.get(case.name, case.length**2)
+
+
 def _pick(group, names, default, notes, what):
     for n in names:
         if n in group:
@@ -367,10 +374,7 @@ class Run:
     def dx(self):
         """Equivalent particle spacing (volume per particle)^(1/dim): the
         initial patch's area pi R^2 / volume 4/3 pi R^3 / square L^2."""
-        c = self.case
-        vol = {"circle2d": math.pi * c.length**2,
-               "ellipsoid3d": 4 / 3 * math.pi * c.length**3}.get(c.name, c.length**2)
-        return (vol / self.n_particles) ** (1 / c.dim)
+        return (patch_volume(self.case) / self.n_particles) ** (1 / self.case.dim)
 
     def column(self, name):
         if name not in self.ts:
@@ -397,6 +401,16 @@ class Run:
             if all(abs(p) < 1e-12 for p in pos[:self.case.dim]):
                 return key
         return None
+
+    def probe_samples(self, name):
+        """The samples (t, p) of the probe column `name`: the time series' rows."""
+        return self.time, self.ts[name]
+
+    def probe_signal(self, name):
+        """The samples (t, p, P(t)) of the centre probe `name` with the exact
+        centre pressure at the same times."""
+        t, p = self.probe_samples(name)
+        return t, p, self.column("p_centre_exact")
 
 
 def solver_summary(text):
@@ -436,6 +450,8 @@ def exact_ellipse(t, rates=(-1.0, 1.0), radius=1.0, rho=1.0):
         return np.concatenate([al * a, 2 * p / a**2 - al**2])
 
     tt = np.unique(np.concatenate([[0.0], t]))
+    if tt[-1] == 0:             # t = 0 alone: the initial state (no interval to integrate)
+        tt = np.array([0.0, 1e-300])
     sol = solve_ivp(rhs, (0.0, tt[-1]), np.concatenate([np.full(d, radius), rates]),
                     t_eval=tt, rtol=1e-12, atol=1e-14, method="DOP853")
     idx = np.searchsorted(tt, t)
@@ -638,31 +654,42 @@ def stretching_errors(run, f_cut, transition):
     for k in range(1, dim + 1):
         ser[f"axis_{k}"] = run.column(f"semi_axis_{k}_error")
     ser["axis_max"] = np.max(np.abs([ser[f"axis_{k}"] for k in range(1, dim + 1)]), axis=0)
-    ser["pos"] = run.column("rms_position_error")
+    # a measure the run cannot give (a foreign run without particle ids has
+    # no Lagrangian position error) is left out, with the reason
+    missing = dict(getattr(run, "missing", {}))
+    if "pos" not in missing:
+        ser["pos"] = run.column("rms_position_error")
     ser["vel"] = run.column("rms_velocity_error")
     ser["ke"] = run.column("kinetic_energy") / run.column("kinetic_energy_exact") - 1
     pex = run.column("p_centre_exact")
     p0 = float(pex[0])
     ser["P"] = pex / p0
     probe = run.centre_probe()
-    out = {"series": ser, "p0": p0, "probe": probe, "time": t}
+    out = {"series": ser, "p0": p0, "probe": probe, "time": t, "missing": missing}
     if probe is not None:
-        praw = run.ts[probe]
-        ser["p_raw"] = (praw - pex) / p0
+        # the probe's own samples: the time-series rows for our runs, a
+        # probe file's rows for a foreign run that has one
+        tp, praw, pexp = run.probe_signal(probe)
+        eraw = (praw - pexp) / p0
+        ser["p_raw"] = eraw if tp is t else np.interp(t, tp, eraw)
         # the error signal p - P(t) is filtered, i.e. the SPH pressure and
         # the exact one pass through the same filter: the filter's rounding
         # of the exact curve at the ends (bias, below) cancels instead of
         # being counted as an error of the solver (doc/postproc.md)
-        tu, _, ef = lowpass(t, (praw - pex) / p0, f_cut, transition)
-        _, pu, pexf = lowpass(t, pex, f_cut, transition, dt=tu[1] - tu[0])
+        tu, _, ef = lowpass(tp, eraw, f_cut, transition)
+        _, pu, pexf = lowpass(tp, pexp, f_cut, transition, dt=tu[1] - tu[0])
         out["filtered"] = (tu, ef, pu / p0, (pexf - pu) / p0)
     names = [f"axis_{k}" for k in range(1, dim + 1)] + ["axis_max", "pos", "vel", "ke"]
+    names = [n for n in names if n not in missing]
     if probe is not None:
         names.append("p_raw")
     mean = {n: time_mean(t, np.abs(ser[n])) for n in names}
     smean = {n: float(np.nanmean(np.abs(ser[n]))) for n in names}
     final = {n: float(ser[n][-1]) for n in names}
     if probe is not None:
+        mean["p_raw"] = time_mean(tp, np.abs(eraw))
+        smean["p_raw"] = float(np.nanmean(np.abs(eraw)))
+        final["p_raw"] = float(eraw[-1])
         tu, ef, _, bias = out["filtered"]
         mean["p_filt"] = time_mean(tu, np.abs(ef))
         smean["p_filt"] = float(np.mean(np.abs(ef)))
@@ -671,18 +698,20 @@ def stretching_errors(run, f_cut, transition):
         final["p_filt_bias"] = float(bias[-1])
         # the start-up dip: the largest fall of the raw centre pressure below
         # P(t) over t rate < DIP_WINDOW (0 if it never falls below)
-        early = t * c.rate < DIP_WINDOW
-        out["dip"] = float(max(0.0, -np.min(ser["p_raw"][early]))) if early.any() else 0.0
+        early = tp * c.rate < DIP_WINDOW
+        out["dip"] = float(max(0.0, -np.min(eraw[early]))) if early.any() else 0.0
     out["slow"] = slow_centre_pressure(c, t)
     mean["slow"] = time_mean(t, np.abs(out["slow"]))
     out.update(mean=mean, sample_mean=smean, final=final, names=names)
     return out
 
 
-def centre_pressure_accel(a, al, rho=1.0):
-    """P''(t) of X1 from the semi-axes a and rates al (arrays (n, dim)):
-    with P = rho N/D, N = Sum al^2, D = 2 Sum 1/a^2, a' = al a,
-    al' = 2P/(rho a^2) - al^2 and al'' = 2P'/(rho a^2) - 4 P al/(rho a^2) - 2 al al',
+def centre_pressure_derivatives(a, al, rho=1.0):
+    """P(t), P'(t) and P''(t) of X1 from the semi-axes a and rates al
+    (arrays (n, dim)): with P = rho N/D, N = Sum al^2, D = 2 Sum 1/a^2,
+    a' = al a, al' = 2P/(rho a^2) - al^2 and
+    al'' = 2P'/(rho a^2) - 4 P al/(rho a^2) - 2 al al',
+    P' = rho (N' D - N D')/D^2,
     P'' = rho ((N'' D - N D'')/D^2 - 2 D' (N' D - N D')/D^3)."""
     a, al = np.atleast_2d(a), np.atleast_2d(al)
     n, d = np.sum(al**2, 1), 2 * np.sum(1 / a**2, 1)
@@ -693,21 +722,33 @@ def centre_pressure_accel(a, al, rho=1.0):
     al2 = (2 * p1[:, None] - 4 * p[:, None] * al) / (rho * a**2) - 2 * al * al1
     n2 = 2 * np.sum(al1**2 + al * al2, 1)
     d2 = -4 * np.sum((al1 - 2 * al**2) / a**2, 1)
-    return rho * ((n2 * d - n * d2) / d**2 - 2 * d1 * (n1 * d - n * d1) / d**3)
+    p2 = rho * ((n2 * d - n * d2) / d**2 - 2 * d1 * (n1 * d - n * d1) / d**3)
+    return p, p1, p2
 
 
-def slow_centre_pressure(case, t):
+def centre_pressure_accel(a, al, rho=1.0):
+    """P''(t) of X1 from the semi-axes a and rates al (centre_pressure_derivatives)."""
+    return centre_pressure_derivatives(a, al, rho)[2]
+
+
+def compressibility_floor(t, rates=(-1.0, 1.0), radius=1.0, rho=1.0, c0=10.0):
     """(I2, doc/numerics.md) The weakly compressible model's own departure
-    of the centre pressure from the incompressible P(t), over P(0):
+    of the centre pressure of the stretching patch (X1, initial rates
+    `rates`) from the incompressible P(t), over P(0):
     delta p(0, t) = -P''(t) R^2 (dim + 4) / (4 dim (dim + 2) c0^2).  It
     falls as 1/c0^2 and is slow, so the low-pass filter keeps it: a floor
     of the filtered error at any resolution."""
-    d = case.dim
+    d = len(rates)
     t = np.atleast_1d(np.asarray(t, dtype=float))
-    a, al, p = exact_ellipse(t, rates=case.rates, radius=case.length, rho=case.rho0)
-    p0 = case.rho0 * np.sum(np.square(case.rates)) * case.length**2 / (2 * d)
-    p2 = centre_pressure_accel(a, al, case.rho0)
-    return -p2 * case.length**2 * (d + 4) / (4 * d * (d + 2) * case.c0**2) / p0
+    a, al, _ = exact_ellipse(t, rates=rates, radius=radius, rho=rho)
+    p0 = rho * np.sum(np.square(rates)) * radius**2 / (2 * d)
+    p2 = centre_pressure_accel(a, al, rho)
+    return -p2 * radius**2 * (d + 4) / (4 * d * (d + 2) * c0**2) / p0
+
+
+def slow_centre_pressure(case, t):
+    """compressibility_floor (I2) of a run's case (CaseInfo) at the times t."""
+    return compressibility_floor(t, case.rates, case.length, case.rho0, case.c0)
 
 
 def row_indices(run, times=None, count=None):
