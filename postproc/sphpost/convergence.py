@@ -22,6 +22,7 @@ import json
 import sys
 
 from . import core as sp
+from . import foreign
 
 PROG = "convergence"
 
@@ -60,7 +61,8 @@ def command(argv, prog="postproc/convergence"):
     ap = argparse.ArgumentParser(prog=prog, description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("run_dirs", nargs="+", metavar="RUN_DIR",
-                    help="run directories of one case at several resolutions (any order)")
+                    help="run directories of one case at several resolutions (any order), "
+                         "ours or another code's (--case, doc/postproc.md)")
     ap.add_argument("-o", "--output", metavar="PNG", default="convergence.png",
                     help="the log-log plot (default %(default)s)")
     ap.add_argument("--json", metavar="FILE", help="also write the table and orders as JSON")
@@ -70,12 +72,13 @@ def command(argv, prog="postproc/convergence"):
                          "runs that go further are cut at T, e.g. four full levels and "
                          "a fifth stopped at a checkpoint")
     sp.add_filter_options(ap)
+    foreign.add_options(ap)
     args = ap.parse_args(argv)
     if len(args.run_dirs) < 2:
         raise sp.PostprocError("give at least two run directories (resolutions)")
     if args.until is not None and not args.until > 0:
         raise sp.PostprocError(f"--until {args.until:g}: give a time above 0")
-    runs = [sp.Run(d) for d in args.run_dirs]
+    runs = [foreign.open_run(d, args) for d in args.run_dirs]
     if args.until is not None:
         runs = [r.window(args.until) for r in runs]
     table = study(runs, args, args.output, args.title)

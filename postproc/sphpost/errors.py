@@ -1,5 +1,6 @@
 """errors: the paper's errors of a circle2d or ellipsoid3d run against the
-exact solution, at the output times and averaged over time.
+exact solution, at the output times and averaged over time; for the square
+patches the probe pressure, kinetic energy and free surface.
 
 Prints a table over the snapshot times (or --times / --count), then the
 time-averaged ("mean") absolute errors the paper quotes: semi-axes, particle
@@ -8,9 +9,16 @@ the centre pressure raw and low-pass filtered (relative to P(0)).  The values
 at the table's times are the solver's own time-series values (timeseries.csv);
 --check-snapshots recomputes them from the HDF5 snapshots as a cross-check.
 
+The run is one of ours (a run directory) or another code's output, one file
+per output time: the plain format (CSV or .npz), VTK (.vtk, .vtu, .vtp) or
+PySPH's dumps (doc/postproc.md, "Other codes' runs"); its case is --case and
+its units --length, --rate, --v0, --rho.
+
 Example:
   postproc/errors runs/circle2d
   postproc/errors runs/circle2d --count 9 --csv errors.csv
+  postproc/errors --case circle2d my_code/output --probe-file my_code/centre.csv
+  postproc/errors --case circle2d dsph/out --pattern 'PartFluid_*.vtk' --output-dt 0.01
 """
 import argparse
 import json
@@ -18,6 +26,7 @@ import math
 import sys
 
 from . import core as sp
+from . import exact, foreign
 
 PROG = "errors"
 
@@ -74,7 +83,8 @@ def command(argv, prog="postproc/errors"):
     ap = argparse.ArgumentParser(
         prog=prog, description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("run_dir", help="the run directory (output.dir of an sph run)")
+    ap.add_argument("run_dir", help="the run directory (output.dir of an sph run), or another "
+                                    "code's output files: a directory or a glob pattern")
     g = ap.add_mutually_exclusive_group()
     g.add_argument("--times", type=float, nargs="+", metavar="T",
                    help="tabulate the rows nearest these times (default: the snapshot times)")
@@ -90,18 +100,24 @@ def command(argv, prog="postproc/errors"):
                     help="split each snapshot's RMS velocity error into a smooth part (fit by "
                          "cubic polynomials of the initial positions) and a particle-scale rest")
     sp.add_filter_options(ap)
+    foreign.add_options(ap)
     args = ap.parse_args(argv)
 
     import numpy as np
-    run = sp.Run(args.run_dir)
+    run = foreign.open_run(args.run_dir, args)
     c = run.case
+    if isinstance(run, foreign.ForeignRun) and (args.check_snapshots or args.velocity_split):
+        raise sp.PostprocError("--check-snapshots and --velocity-split need an sph run's "
+                               f"snapshots; '{args.run_dir}' is another code's output")
     fc, tw, how = sp.filter_from_args(c, args)
+    if c.square:
+        return square_report(run, fc, tw, how, args)
     res = sp.stretching_errors(run, fc, tw)
     if args.json:
         print(json.dumps({"run": run.path, "case": c.name, "n": run.n_particles,
                           "dx": run.dx, "t_end": float(run.time[-1]), "f_cut": fc,
                           "mean": res["mean"], "sample_mean": res["sample_mean"],
-                          "final": res["final"]}, indent=1))
+                          "final": res["final"], "missing": res["missing"]}, indent=1))
         return 0
 
     dim = c.dim
@@ -121,8 +137,12 @@ def command(argv, prog="postproc/errors"):
     print("errors in %: semi-axis k: fitted SPH / same fit of the exact positions - 1; "
           "pos: RMS |x - x_exact| / R; vel: RMS |u - u_exact| / (A0 R); "
           "KE: KE / KE_exact - 1; p raw, p filt: (p - P(t)) / P(0)")
+    for key, why in res["missing"].items():
+        print(f"left out: {key} ({why})")
     cols = [f"axis {k}" for k in range(1, dim + 1)] + ["max|axis|", "pos", "vel", "KE"]
     keys = [f"axis_{k}" for k in range(1, dim + 1)] + ["axis_max", "pos", "vel", "ke"]
+    cols = [n for n, k in zip(cols, keys) if k not in res["missing"]]
+    keys = [k for k in keys if k not in res["missing"]]
     has_p = res["probe"] is not None
     if has_p:
         cols += ["p raw", "p filt", "P(t)/P(0)"]
@@ -176,6 +196,88 @@ def command(argv, prog="postproc/errors"):
             wr.writerow(["time"] + [k.replace(" ", "_").replace("|", "") for k in cols])
             for r in table:
                 wr.writerow([f"{v:.10g}" for v in r])
+    return 0
+
+
+def reference_comparison(case, t, p_probe, ke):
+    """The hook for the squares' independent reference solution (to be
+    wired to sphpost.reference): given the case (CaseInfo), the run's times
+    t, its probe pressure p_probe (on the same times, or a probe file's
+    own: t and p_probe of equal length) and kinetic energy ke (on the run's
+    rows), returns a dict of the comparison's measures, or None while no
+    reference is available.  square_report prints whatever it returns."""
+    return None
+
+
+def square_report(run, fc, tw, how, args):
+    """The square patches: the probe pressure raw and filtered against the
+    initial pressure of the sine series (X3, X4), the kinetic energy
+    against the exact flow's (kept constant), the free surface's outline
+    (area, perimeter, curves) at the first and last output, and the
+    reference comparison's hook.  Prints the report (or JSON)."""
+    import numpy as np
+    c = run.case
+    t = run.time
+    point = np.array(foreign.PROBES[c.name]) * c.length
+    pexact = exact.square_rotation_pressure if c.name == "square_rotation" \
+        else exact.square_vortical_pressure
+    scale = c.rate if c.name == "square_rotation" else c.rate * c.length
+    p0_exact = float(pexact(point[0], point[1], c.length, scale, c.rho0)[0])
+    ke0_exact = (exact.square_rotation_kinetic_energy if c.name == "square_rotation"
+                 else exact.square_vortical_kinetic_energy)(c.length, scale, c.rho0)
+    ke = run.column("kinetic_energy")
+    run.column("p_probe_1")
+    tp, pp = run.probe_samples("p_probe_1")
+    out = {"run": run.path, "case": c.name, "n": run.n_particles, "t_end": float(t[-1]),
+           "probe": point.tolist(), "p0_exact": p0_exact,
+           "p_first": float(pp[0]), "p_end": float(pp[-1]),
+           "p0_error": (float(pp[0]) - p0_exact) / c.p_unit,
+           "ke0_exact": ke0_exact, "ke_first": float(ke[0]), "ke_end": float(ke[-1]),
+           "ke_change": float(ke[-1] / ke[0] - 1), "ke0_error": float(ke[0] / ke0_exact - 1)}
+    ok = np.isfinite(pp)
+    if ok.sum() >= 4:
+        tu, pu, pf = sp.lowpass(tp[ok], pp[ok], fc, tw)
+        out["p_filt_end"] = float(pf[-1])
+        out["p_acoustic_rms"] = float(np.sqrt(np.mean((pu - pf)**2)) / c.p_unit)
+    outlines = getattr(run, "outlines", None)
+    if outlines is None and run.snapshots:
+        outlines = {}
+        for i in (0, -1):
+            s = run.snapshot(i)
+            vol = s["mass"] / s["density"]
+            outlines[s["attrs"]["time"]] = foreign.free_surface_outline(
+                s["position"][:, :2], vol, run.dx)
+    out["outline"] = {f"{tt:g}": dict(zip(("area", "perimeter", "curves"),
+                                          foreign.outline_measures(lines)))
+                      for tt, lines in (outlines or {}).items()}
+    out["reference"] = reference_comparison(c, tp, pp, ke)
+    if args.json:
+        print(json.dumps(out, indent=1))
+        return 0
+    for n in c.notes:
+        print(f"note: {n}")
+    unit = c.p_unit_label
+    print(f"run {run.path}: {c.name}, {run.n_particles} particles, c0 {c.c0:g}, t_end "
+          f"{t[-1]:g} ({c.time_label} = {t[-1] * c.rate:g}), {len(t)} rows")
+    print(f"probe at ({point[0]:g}, {point[1]:g}): p(0) {pp[0]:.6g} against the sine series' "
+          f"{p0_exact:.6g} (X3/X4): {out['p0_error']:+.3e} {unit}; at the end {pp[-1]:.6g}")
+    if "p_filt_end" in out:
+        print(f"filtered (cut-off {how}, transition +-{tw:g}): at the end "
+              f"{out['p_filt_end']:.6g}; RMS of the removed acoustic part "
+              f"{out['p_acoustic_rms']:.3e} {unit}")
+    else:
+        print("filtered probe pressure: fewer than 4 samples, left out")
+    print(f"kinetic energy: {ke[0]:.6g} at the start ({100 * out['ke0_error']:+.4f} % from the "
+          f"exact {ke0_exact:.6g}), {ke[-1]:.6g} at the end ({100 * out['ke_change']:+.4f} %)")
+    for tt, m in out["outline"].items():
+        print(f"free surface at {c.time_label} = {float(tt) * c.rate:g}: area "
+              f"{m['area'] / c.length**2:.5f} L^2, perimeter {m['perimeter'] / c.length:.4f} L, "
+              f"{m['curves']} closed curve(s)")
+    if out["reference"] is None:
+        print("reference solution: not yet available (errors.reference_comparison)")
+    else:
+        for k, v in out["reference"].items():
+            print(f"reference {k}: {v}")
     return 0
 
 

@@ -23,6 +23,7 @@ import os
 import sys
 
 from . import core as sp
+from . import foreign
 
 PROG = "filter"
 
@@ -32,15 +33,17 @@ def command(argv, prog="postproc/filter"):
     report and returns the exit status.  Raises PostprocError."""
     ap = argparse.ArgumentParser(prog=prog, description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("run_dir", help="the run directory (output.dir of an sph run)")
+    ap.add_argument("run_dir", help="the run directory (output.dir of an sph run), or another "
+                                    "code's output (--case, doc/postproc.md)")
     ap.add_argument("-o", "--output", metavar="FILE",
                     help="where to write the filtered signals "
                          "(default RUN_DIR/probes_filtered.csv)")
     ap.add_argument("--dt", type=float, metavar="DT",
                     help="step of the uniform grid (default: the median time step of the run)")
     sp.add_filter_options(ap)
+    foreign.add_options(ap)
     args = ap.parse_args(argv)
-    filter_probes(sp.Run(args.run_dir), args, args.output, args.dt)
+    filter_probes(foreign.open_run(args.run_dir, args), args, args.output, args.dt)
     return 0
 
 
@@ -65,12 +68,11 @@ def filter_probes(run, fopts, output=None, dt=None, echo=print):
     echo(f"run {run.path}: {c.name}; cut-off {how}; transition +-{tw:g} "
          f"(H = 1 below {fc * (1 - tw) / c.rate:.4g} {unit}, "
          f"0 above {fc * (1 + tw) / c.rate:.4g} {unit})")
-    t = run.time
     tu = None
     cols = {}
     stats = {}
     for name in probes:
-        y = run.ts[name]
+        t, y = run.probe_samples(name)
         n_bad = int(np.sum(~np.isfinite(y)))
         if np.sum(np.isfinite(y)) < 4:
             echo(f"{name}: fewer than 4 valid samples (no particle near the probe): skipped")
@@ -98,7 +100,7 @@ def filter_probes(run, fopts, output=None, dt=None, echo=print):
     if tu is None:
         raise sp.PostprocError("no probe had enough valid samples to filter")
     if "p_centre_exact" in run.ts:
-        cols["p_centre_exact"] = np.interp(tu, t, run.ts["p_centre_exact"])
+        cols["p_centre_exact"] = np.interp(tu, run.time, run.ts["p_centre_exact"])
     out = output or os.path.join(run.path, "probes_filtered.csv")
     names = list(cols)
     with open(out, "w") as f:
