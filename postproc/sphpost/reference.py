@@ -1,0 +1,696 @@
+"""reference: the square patches computed by an independent incompressible
+two-phase solver, Gerris, as the reference for any particle run.
+
+  postproc/reference run CASE --level N      writes and runs the Gerris case, then analyses it
+  postproc/reference analyse DIR             analyses a finished Gerris run again
+  postproc/reference study DIR DIR...        the reference's own resolution study
+  postproc/reference compare RUN DIR         an sph run against a reference
+
+CASE is square_rotation or square_vortical; the side, the rate (omega, V0),
+rho0 and t_end are read from the case's input file (--input, default
+input/CASE.nml), so that the reference and the SPH run describe the same
+flow.  Gerris (Debian's gerris2D, Popinet 2003, 2009) solves the
+incompressible Euler equations of two phases on an adaptive quadtree: a VOF
+tracer T marks the dense phase (the square's fluid, density rho0), the light
+phase (density --ratio rho0) stands for the void; no gravity, no surface
+tension, no viscosity unless --light-viscosity is given (doc/validation.md,
+"The square patches' reference", says what was tried and why these choices).
+
+What `run` writes into DIR (default runs/reference/CASE/level_N), all plain
+CSV with a header line, in the case's own units (doc/output.md, "Reference
+runs"):
+  pressure.csv      t, p, p_far: the pressure at the case's probe (A = the
+                    centre for the rotating square, (L/4, L/4) for the vortical
+                    one) less the mean of the light phase's within three cells
+                    of the interface (p), or less the light phase's at the far
+                    corner (p_far), every 0.01 time units
+  integrals.csv     t, area, kinetic_energy of the dense phase, every 0.01
+  interface_T.csv   piece, x, y: the 0.5 contour of the volume fraction at the
+                    case's interface times (1, 2, 3, 4 / omega; 0.4, 1.0, 1.2,
+                    1.5 L/V0), one file per time
+  cavities.csv      t, cavities, largest_cavity_area (vortical square): light-
+                    phase regions enclosed by the dense phase
+  summary.json      the settings, the initial probe pressure against the sine
+                    series, the first cavity's time, the area and energy drift,
+                    the wall time
+plus the Gerris input (sim.gfs) and its log (gerris.log).
+"""
+import argparse
+import json
+import math
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+from . import core as sp
+
+PROG = "reference"
+CASES = ("square_rotation", "square_vortical")
+
+# The initial probe pressures by the sine series (doc/theory.md X3, X4), in
+# rho omega^2 L^2 and rho V0^2.
+SERIES_P0 = {"square_rotation": -0.147343, "square_vortical": -0.229452}
+# The times of the interfaces written, in the case's time unit.
+INTERFACE_TIMES = {"square_rotation": (1.0, 2.0, 3.0, 4.0),
+                   "square_vortical": (0.4, 1.0, 1.2, 1.5)}
+# Where the vortical square's cavities are looked for, in t V0/L: the free
+# surface reconnects at about 1.2 (the paper; our SPH runs: 1.195-1.226).
+CAVITY_WINDOW = (1.1, 1.35)
+# The scans' spacing there: the first cavity's time is known to half of it.
+CAVITY_DT = 0.0025
+# Output spacing of the tabulated series, in the case's time unit.
+DT_OUT = 0.01
+# Samples whose step is shorter than this fraction of the median step around
+# them are left out: Gerris shortens a step to land on an output time, and
+# the projection's pressure after a very short step carries its residual
+# divided by that step.
+SHORT_STEP = 0.5
+
+
+class Setup:
+    """A reference run's physical and numerical settings."""
+
+    def __init__(self, case, side, rate, rho0, t_end, level, ratio=1e-3, light="continue",
+                 light_viscosity=0.0, box=8.0, tolerance=1e-6, min_level=4):
+        if case not in CASES:
+            raise sp.PostprocError(f"case '{case}': the reference knows {', '.join(CASES)}")
+        self.case, self.side, self.rate, self.rho0 = case, side, rate, rho0
+        self.t_end, self.level, self.ratio, self.light = t_end, level, ratio, light
+        self.light_viscosity, self.box, self.tolerance = light_viscosity, box, tolerance
+        self.min_level = min_level
+        for name, ok, what in (("level", 5 <= level <= 14, "5 <= level <= 14"),
+                               ("ratio", 0 < ratio < 1, "0 < ratio < 1"),
+                               ("light", light in ("rest", "continue"),
+                                "'rest' or 'continue'"),
+                               ("light_viscosity", light_viscosity >= 0,
+                                "light_viscosity >= 0"),
+                               ("box", box >= 2, "box >= 2 (in units of the side)")):
+            if not ok:
+                raise sp.PostprocError(f"--{name.replace('_', '-')} "
+                                       f"{getattr(self, name)!r}: allowed {what}")
+
+    @property
+    def dx(self):
+        """The finest cell's side, in units of L."""
+        return self.box / 2**self.level
+
+    @property
+    def probe(self):
+        """The probe's position in units of L."""
+        return (0.0, 0.0) if self.case == "square_rotation" else (0.25, 0.25)
+
+    @property
+    def p_unit(self):
+        """The case's pressure unit: rho omega^2 L^2 or rho V0^2."""
+        return self.rho0 * (self.rate * self.side) ** 2 if self.case == "square_rotation" \
+            else self.rho0 * self.rate**2
+
+    @property
+    def time_unit(self):
+        """1/omega or L/V0."""
+        return 1.0 / self.rate if self.case == "square_rotation" else self.side / self.rate
+
+    def as_dict(self):
+        return {k: getattr(self, k) for k in ("case", "side", "rate", "rho0", "t_end", "level",
+                                              "ratio", "light", "light_viscosity", "box",
+                                              "tolerance", "min_level")}
+
+    @classmethod
+    def from_input(cls, case, path, **kw):
+        if not os.path.isfile(path):
+            raise sp.PostprocError(f"input file '{path}' does not exist")
+        nml = sp.read_namelist(path)
+        name = str(nml.get("run", {}).get("case", case)).lower()
+        if name != case:
+            raise sp.PostprocError(f"{path}: run.case is '{name}', not '{case}'")
+        c = sp.case_info(nml, case)
+        rate = c.rate if case == "square_rotation" else c.rate * c.length   # omega or V0
+        t_end = float(nml.get("run", {}).get("t_end", 4.0 if case == "square_rotation"
+                                                else 1.5))
+        return cls(case, c.length, rate, c.rho0, t_end, **kw)
+
+
+# ---------------------------------------------------------------------------
+# The Gerris input
+# ---------------------------------------------------------------------------
+
+def _velocity(s):
+    """The initial velocity (U, V) as Gerris expressions of x and y (doc/theory.md
+    X3, X4), and the indicator of the square."""
+    h = s.side / 2
+    inside = f"(fabs(x) < {h!r} && fabs(y) < {h!r})"
+    if s.case == "square_rotation":
+        u, v = f"{s.rate!r}*y", f"-{s.rate!r}*x"
+        if s.light == "continue":
+            # rigid rotation within the circle through the corners, r_c = L/sqrt(2),
+            # the potential vortex of the same circulation outside: the light
+            # phase's own pressure then falls off as 1/r^2 instead of growing
+            # as r^2 towards the walls
+            rc2 = s.side**2 / 2
+            g = f"(x*x + y*y < {rc2!r} ? 1. : {rc2!r}/(x*x + y*y))"
+            u, v = f"{g}*{u}", f"{g}*{v}"
+    else:
+        k = 4.0 / s.side
+        u = f"{s.rate!r}*(exp(-{k!r}*{k!r}*y*y) - exp(-4.))"
+        v = f"-{s.rate!r}*(exp(-{k!r}*{k!r}*x*x) - exp(-4.))"
+    if s.light == "rest":
+        u, v = f"({inside} ? {u} : 0.)", f"({inside} ? {v} : 0.)"
+    return u, v
+
+
+def gerris_file(s):
+    """The Gerris simulation file of a Setup."""
+    L = s.side
+    h = L / 2
+    box = s.box * L
+    u, v = _velocity(s)
+    xp, yp = (c * L for c in s.probe)
+    far = 0.45 * box
+    # 1/density: the dense phase rho0, the light one ratio rho0, arithmetic
+    # in the cells the interface cuts (T1: T smoothed once, Gerris's
+    # recommendation for density ratios of 1000)
+    alpha = f"1./({s.rho0!r}*(T1 + {s.ratio!r}*(1. - T1)))"
+    visc = ""
+    if s.light_viscosity > 0:
+        # the light phase's dynamic viscosity: rho_light nu_light
+        visc = f"  SourceViscosity ({s.ratio * s.rho0 * s.light_viscosity!r}*(1. - T1))\n"
+    # the light phase's cells within three cells of the interface: their
+    # mean pressure is the surface's, the reference of the probe's
+    band = "(T < 1e-6 && T3 > 1e-6 ? 1. : 0.)"
+    times = INTERFACE_TIMES[s.case]
+    outs = "".join(
+        f"  OutputSimulation {{ start = {t * s.time_unit!r} }} field-{t:g}.txt "
+        "{ format = text variables = T,P,U,V }\n" for t in times if t * s.time_unit
+        <= s.t_end * (1 + 1e-12))
+    if s.case == "square_vortical":
+        t0, t1 = (t * s.time_unit for t in CAVITY_WINDOW)
+        outs += (f"  OutputSimulation {{ step = {CAVITY_DT * s.time_unit!r} start = {t0!r} "
+                 f"end = {t1!r} }} scan-%g.txt {{ format = text variables = T }}\n")
+    return f"""# {s.case}: reference by postproc/reference (sph), {json.dumps(s.as_dict())}
+1 0 GfsSimulation GfsBox GfsGEdge {{}} {{
+  PhysicalParams {{ L = {box!r} }}
+  Time {{ end = {s.t_end * s.time_unit!r} }}
+  Refine {s.level}
+  VariableTracerVOF T
+  VariableFiltered T1 T 1
+  VariableFiltered T3 T 3
+  InitFraction T ({{ return MIN({h!r} - fabs(x), {h!r} - fabs(y)); }})
+  Init {{}} {{ U = {u} V = {v} }}
+  PhysicalParams {{ alpha = {alpha} }}
+{visc}  ApproxProjectionParams {{ tolerance = {s.tolerance!r} }}
+  ProjectionParams {{ tolerance = {s.tolerance!r} }}
+  AdaptFunction {{ istep = 1 }} {{ cmax = 0.01 maxlevel = {s.level} minlevel = {s.min_level} }} T
+  AdaptGradient {{ istep = 1 }} {{ cmax = 1e-3 maxlevel = {s.level} minlevel = {s.min_level} }} T
+  OutputTime {{ istep = 10 }} stderr
+  OutputLocation {{ istep = 1 }} probe.dat {{ {xp!r} {yp!r} 0 }}
+  OutputLocation {{ istep = 1 }} far.dat {{ {far!r} {far!r} 0 }}
+  OutputScalarSum {{ istep = 1 }} area.dat {{ v = T }}
+  OutputScalarSum {{ istep = 1 }} band.dat {{ v = {band} }}
+  OutputScalarSum {{ istep = 1 }} band_p.dat {{ v = {band}*P }}
+  OutputScalarSum {{ istep = 1 }} energy.dat {{ v = {0.5 * s.rho0!r}*T*(U*U + V*V) }}
+{outs}}}
+GfsBox {{}}
+"""
+
+
+# ---------------------------------------------------------------------------
+# Running Gerris
+# ---------------------------------------------------------------------------
+
+def run_gerris(s, out_dir, echo=print, progress_interval=30.0):
+    """Writes sim.gfs into out_dir and runs gerris2D there, its messages to
+    gerris.log; prints the progress with an ETA every progress_interval
+    seconds.  Returns the wall time."""
+    exe = shutil.which("gerris2D")
+    if exe is None:
+        raise sp.PostprocError("gerris2D not found: install Debian's packages gerris and "
+                               "libgfs-dev (setup.sh does)")
+    os.makedirs(out_dir, exist_ok=True)
+    for old in os.listdir(out_dir):
+        if re.match(r"(field|scan)-.*\.txt$|.*\.dat$|.*\.csv$|summary\.json$", old):
+            os.remove(os.path.join(out_dir, old))
+    with open(os.path.join(out_dir, "sim.gfs"), "w") as f:
+        f.write(gerris_file(s))
+    t_end = s.t_end * s.time_unit
+    start = last = time.monotonic()
+    pat = re.compile(r"step:\s*(\d+)\s+t:\s*(\S+)\s+dt:\s*(\S+)")
+    with open(os.path.join(out_dir, "gerris.log"), "w") as log:
+        proc = subprocess.Popen([exe, "sim.gfs"], cwd=out_dir, stdout=log,
+                                stderr=subprocess.PIPE, text=True)
+        try:
+            for line in proc.stderr:
+                log.write(line)
+                m = pat.search(line)
+                now = time.monotonic()
+                if m and now - last >= progress_interval:
+                    last = now
+                    t = float(m.group(2))
+                    eta = (now - start) * (t_end - t) / t if t > 0 else float("nan")
+                    echo(f"  step {int(m.group(1)):7d}  t {t / s.time_unit:8.4f}  "
+                         f"dt {float(m.group(3)):.3e}  wall {now - start:8.1f} s  "
+                         f"ETA {eta:8.1f} s")
+        except KeyboardInterrupt:
+            proc.terminate()
+            proc.wait()
+            raise
+        rc = proc.wait()
+    wall = time.monotonic() - start
+    if rc != 0:
+        raise sp.PostprocError(f"gerris2D stopped with status {rc} in {out_dir}: see its "
+                               "gerris.log")
+    return wall
+
+
+# ---------------------------------------------------------------------------
+# Reading Gerris's outputs
+# ---------------------------------------------------------------------------
+
+def _columns(path):
+    """A Gerris table (OutputLocation, text OutputSimulation): {name: array}
+    from its header '# 1:t 2:x ...'."""
+    if not os.path.isfile(path):
+        raise sp.PostprocError(f"{path} is missing: did the Gerris run finish?")
+    with open(path) as f:
+        head = f.readline()
+    names = [m.group(2) for m in re.finditer(r"(\d+):(\S+)", head)]
+    data = np.loadtxt(path, comments="#", ndmin=2)
+    if data.shape[0] == 0 or data.shape[1] < len(names):
+        raise sp.PostprocError(f"{path} has no rows or fewer columns than its header")
+    return {n: data[:, k] for k, n in enumerate(names)}
+
+
+def _sums(path):
+    """An OutputScalarSum file as arrays (t, sum)."""
+    if not os.path.isfile(path):
+        raise sp.PostprocError(f"{path} is missing: did the Gerris run finish?")
+    pat = re.compile(r"time:\s*(\S+)\s+sum:\s*(\S+)")
+    rows = [tuple(float(v) for v in m.groups()) for m in map(pat.search, open(path)) if m]
+    if not rows:
+        raise sp.PostprocError(f"{path} has no 'time: ... sum: ...' lines")
+    a = np.array(rows)
+    return a[:, 0], a[:, 1]
+
+
+def pressure_samples(t, p):
+    """The samples p(t) of a probe pressure at the middle of each step
+    (Gerris's projection pressure belongs to t - dt/2 of the output at t),
+    without the first output (before any projection) and those after a short
+    step (SHORT_STEP).  Returns (t, p, number of samples dropped)."""
+    dt = np.diff(t)
+    tm, p = t[1:] - dt / 2, p[1:]
+    n = len(dt)
+    med = np.array([np.median(dt[max(0, k - 10):k + 11]) for k in range(n)])
+    keep = dt >= SHORT_STEP * med
+    return tm[keep], p[keep], int(n - keep.sum())
+
+
+def surface_pressure(ref_dir, t):
+    """The mean pressure of the light phase's cells within three cells of the
+    interface, at the probe's output times t."""
+    tb, band = _sums(os.path.join(ref_dir, "band.dat"))
+    tp, band_p = _sums(os.path.join(ref_dir, "band_p.dat"))
+    if len(tb) != len(t) or len(tp) != len(t) or np.any(np.abs(tb - t) > 1e-9 * (1 + t)):
+        raise sp.PostprocError(f"{ref_dir}: band.dat, band_p.dat and probe.dat are not "
+                               "at the same times: did the Gerris run finish?")
+    return band_p / np.maximum(band, 1e-300)
+
+
+def tabulate(t, y, t_end, dt=DT_OUT, t0_value=None):
+    """y(t) every dt over [0, t_end] by linear interpolation; t0_value (if
+    given) is the value at t = 0."""
+    grid = np.round(np.arange(0.0, t_end + dt / 2, dt), 10)
+    if t0_value is not None and t[0] > 0:
+        t, y = np.concatenate(([0.0], t)), np.concatenate(([t0_value], y))
+    return grid, np.interp(grid, t, y)
+
+
+def initial_value(t, p, window):
+    """p(0) by a least-squares line through the samples of the first `window`
+    time units."""
+    sel = t <= window
+    if sel.sum() < 3:
+        sel = np.arange(len(t)) < 3
+    c = np.polyfit(t[sel], p[sel], 1)
+    return float(np.polyval(c, 0.0))
+
+
+def fraction_grid(cells, s):
+    """The volume fraction on the uniform grid of the finest cells, cropped to
+    the cells that hold dense phase with a margin of light phase: (x0, y0,
+    dx, T[j, i]).  A coarser cell (in the light phase, or a wisp of dense
+    phase below the refinement threshold) fills the fine cells it covers."""
+    dx = s.dx * s.side
+    half = s.box * s.side / 2
+    x, y, T = cells["x"] + half, cells["y"] + half, np.clip(cells["T"], 0.0, 1.0)
+    # (Gerris writes 6 significant digits: the centres are on the grid to
+    # within a few hundredths of a cell)
+    size = np.zeros(len(T), dtype=int)          # the cell's side in fine cells
+    for k in range(s.level + 1):
+        w = 2**k
+        ix, iy = x / (w * dx) - 0.5, y / (w * dx) - 0.5
+        hit = (size == 0) & (np.abs(ix - np.round(ix)) < 0.05) & \
+            (np.abs(iy - np.round(iy)) < 0.05)
+        size[hit] = w
+    if (size == 0).any():
+        raise sp.PostprocError("cells whose centres are not on Gerris's grid: the box or "
+                               "the level of sim.gfs does not match the output")
+    i0c = np.round(x / dx - size / 2).astype(int)     # the first fine cell covered
+    j0c = np.round(y / dx - size / 2).astype(int)
+    dense = T > 1e-6
+    if not dense.any():
+        raise sp.PostprocError("no cell holds dense phase")
+    lo_i, hi_i = i0c[dense].min() - 2, (i0c + size)[dense].max() + 2
+    lo_j, hi_j = j0c[dense].min() - 2, (j0c + size)[dense].max() + 2
+    grid = np.zeros((hi_j - lo_j, hi_i - lo_i))
+    for c in np.nonzero(dense)[0]:
+        grid[max(j0c[c] - lo_j, 0):j0c[c] + size[c] - lo_j,
+             max(i0c[c] - lo_i, 0):i0c[c] + size[c] - lo_i] = T[c]
+    return -half + (lo_i + 0.5) * dx, -half + (lo_j + 0.5) * dx, dx, grid
+
+
+def contour(x0, y0, dx, grid, level=0.5):
+    """The `level` contour of a grid as a list of (n, 2) polylines."""
+    import contourpy
+    ny, nx = grid.shape
+    gen = contourpy.contour_generator(x0 + dx * np.arange(nx), y0 + dx * np.arange(ny), grid)
+    return [np.asarray(c) for c in gen.lines(level) if len(c) > 1]
+
+
+def cavities(grid, min_cells=4):
+    """The light-phase regions (T < 0.5, 4-connected) that the dense phase
+    encloses: not touching the grid's border, of at least min_cells cells.
+    Returns their sizes in cells."""
+    from scipy import ndimage
+    lab, n = ndimage.label(grid < 0.5)
+    border = set(np.unique(np.concatenate((lab[0], lab[-1], lab[:, 0], lab[:, -1]))))
+    sizes = ndimage.sum_labels(np.ones_like(grid), lab, index=np.arange(1, n + 1))
+    return [int(sz) for k, sz in zip(range(1, n + 1), sizes)
+            if k not in border and sz >= min_cells]
+
+
+def write_csv(path, header, rows):
+    """A CSV file written completely or not at all."""
+    tmp = path + ".tmp"
+    with open(tmp, "w") as f:
+        f.write(",".join(header) + "\n")
+        for r in rows:
+            f.write(",".join(f"{v:.9g}" if isinstance(v, float) else str(v) for v in r) + "\n")
+    os.replace(tmp, path)
+
+
+def read_csv(path):
+    if not os.path.isfile(path):
+        raise sp.PostprocError(f"{path} is missing: analyse the reference run first")
+    a = np.genfromtxt(path, delimiter=",", names=True)
+    return {n: np.atleast_1d(a[n]) for n in a.dtype.names}
+
+
+def load_setup(ref_dir):
+    path = os.path.join(ref_dir, "sim.gfs")
+    if not os.path.isfile(path):
+        raise sp.PostprocError(f"'{ref_dir}' has no sim.gfs: is it a reference run directory?")
+    with open(path) as f:
+        first = f.readline()
+    m = re.search(r"(\{.*\})\s*$", first)
+    if not m:
+        raise sp.PostprocError(f"{path}: its first line does not hold the settings")
+    return Setup(**json.loads(m.group(1)))
+
+
+def analyse(ref_dir, echo=print, wall=None):
+    """Turns a finished Gerris run into the CSV files and summary.json."""
+    s = load_setup(ref_dir)
+    tu, pu = s.time_unit, s.p_unit
+    t_end = s.t_end
+    probe = _columns(os.path.join(ref_dir, "probe.dat"))
+    far = _columns(os.path.join(ref_dir, "far.dat"))
+    if probe["t"][-1] < s.t_end * tu * (1 - 1e-9):
+        raise sp.PostprocError(f"{ref_dir}: the Gerris run ends at t = {probe['t'][-1]:g}, "
+                               f"before t_end = {s.t_end * tu:g}")
+    tg = probe["t"]
+    t, p, dropped = pressure_samples(tg, probe["P"] - surface_pressure(ref_dir, tg))
+    t, p = t / tu, p / pu
+    p0 = initial_value(t, p, 0.02)
+    grid_t, grid_p = tabulate(t, p, t_end, t0_value=p0)
+    # the same against the light phase at the far corner, for comparison
+    tf, pf, _ = pressure_samples(tg, probe["P"] - far["P"])
+    tf, pf = tf / tu, pf / pu
+    _, grid_pf = tabulate(tf, pf, t_end, t0_value=initial_value(tf, pf, 0.02))
+    write_csv(os.path.join(ref_dir, "pressure.csv"), ("t", "p", "p_far"),
+              zip(grid_t, grid_p, grid_pf))
+    ta, area = _sums(os.path.join(ref_dir, "area.dat"))
+    te, energy = _sums(os.path.join(ref_dir, "energy.dat"))
+    ga = np.interp(grid_t, ta / tu, area / s.side**2)
+    ke_unit = s.rho0 * (s.rate * s.side**2) ** 2 if s.case == "square_rotation" \
+        else s.rho0 * s.rate**2 * s.side**2
+    ge = np.interp(grid_t, te / tu, energy / ke_unit)
+    write_csv(os.path.join(ref_dir, "integrals.csv"), ("t", "area", "kinetic_energy"),
+              zip(grid_t, ga, ge))
+    interfaces = {}
+    for tk in INTERFACE_TIMES[s.case]:
+        path = os.path.join(ref_dir, f"field-{tk:g}.txt")
+        if tk > t_end * (1 + 1e-12):
+            continue
+        x0, y0, dx, g = fraction_grid(_columns(path), s)
+        lines = contour(x0, y0, dx, g)
+        rows = [(k, float(x), float(y)) for k, c in enumerate(lines) for x, y in c / s.side]
+        write_csv(os.path.join(ref_dir, f"interface_{tk:g}.csv"), ("piece", "x", "y"), rows)
+        interfaces[f"{tk:g}"] = {"pieces": len(lines), "cavities": len(cavities(g))}
+    first_cavity = None
+    if s.case == "square_vortical":
+        scans = []
+        for name in os.listdir(ref_dir):
+            m = re.match(r"scan-(.*)\.txt$", name)
+            if m:
+                scans.append((float(m.group(1)), os.path.join(ref_dir, name)))
+        rows = []
+        for tk, path in sorted(scans):
+            x0, y0, dx, g = fraction_grid(_columns(path), s)
+            cav = cavities(g)
+            rows.append((tk / tu, len(cav), float(max(cav, default=0) * dx**2 / s.side**2)))
+        if rows:
+            write_csv(os.path.join(ref_dir, "cavities.csv"),
+                      ("t", "cavities", "largest_cavity_area"), rows)
+            hit = [r for r in rows if r[1] > 0]
+            if hit:
+                # between the last scan without and the first with a cavity
+                k = rows.index(hit[0])
+                first_cavity = 0.5 * (hit[0][0] + rows[k - 1][0]) if k > 0 else hit[0][0]
+    steps = len(probe["t"]) - 1
+    summary = {
+        "settings": s.as_dict(),
+        "cells_per_side": 1.0 / s.dx,
+        "steps": steps,
+        "smallest_step": float(np.min(np.diff(probe["t"])) / tu),
+        "pressure_samples_dropped": dropped,
+        "p_probe_initial": p0,
+        "p_probe_series": SERIES_P0[s.case],
+        "p_probe_initial_error": p0 / SERIES_P0[s.case] - 1,
+        "area_drift_max": float(np.max(np.abs(ga / ga[0] - 1))),
+        "kinetic_energy_change_end": float(ge[-1] / ge[0] - 1),
+        "interfaces": interfaces,
+        "first_cavity": first_cavity,
+    }
+    if wall is not None:
+        summary["wall_time_s"] = wall
+    else:
+        old = os.path.join(ref_dir, "summary.json")
+        if os.path.isfile(old):
+            with open(old) as f:
+                w = json.load(f).get("wall_time_s")
+            if w is not None:
+                summary["wall_time_s"] = w
+    tmp = os.path.join(ref_dir, "summary.json.tmp")
+    with open(tmp, "w") as f:
+        json.dump(summary, f, indent=1)
+    os.replace(tmp, os.path.join(ref_dir, "summary.json"))
+    echo(f"{s.case} reference, level {s.level} ({1 / s.dx:g} cells per L), {steps} steps"
+         + (f", {summary['wall_time_s']:.0f} s" if "wall_time_s" in summary else ""))
+    echo(f"  initial probe pressure {p0:.6f} (series {SERIES_P0[s.case]:.6f}: "
+         f"{100 * summary['p_probe_initial_error']:+.3f} %)")
+    echo(f"  area drift at most {100 * summary['area_drift_max']:.4f} %, kinetic energy "
+         f"change at the end {100 * summary['kinetic_energy_change_end']:+.3f} %")
+    if s.case == "square_vortical":
+        echo(f"  first cavity at t V0/L = {first_cavity}")
+    return summary
+
+
+# ---------------------------------------------------------------------------
+# Comparing references (the resolution study) and runs with a reference
+# ---------------------------------------------------------------------------
+
+def read_interface(path):
+    """An interface file as a list of (n, 2) polylines."""
+    d = read_csv(path)
+    return [np.column_stack((d["x"][d["piece"] == k], d["y"][d["piece"] == k]))
+            for k in np.unique(d["piece"])]
+
+
+def densify(lines, ds):
+    """The points of polylines resampled at a spacing of at most ds."""
+    pts = []
+    for c in lines:
+        seg = np.diff(c, axis=0)
+        n = np.maximum(1, np.ceil(np.hypot(seg[:, 0], seg[:, 1]) / ds).astype(int))
+        for k in range(len(seg)):
+            w = np.arange(n[k])[:, None] / n[k]
+            pts.append(c[k] + w * seg[k])
+        pts.append(c[-1:])
+    return np.concatenate(pts) if pts else np.zeros((0, 2))
+
+
+def curve_distance(a, b, ds=1e-3):
+    """Mean and largest distance between two sets of polylines: each point of
+    one (resampled at ds) to the nearest point of the other, both ways."""
+    from scipy.spatial import cKDTree
+    pa, pb = densify(a, ds), densify(b, ds)
+    if len(pa) == 0 or len(pb) == 0:
+        return float("nan"), float("nan")
+    da, _ = cKDTree(pb).query(pa)
+    db, _ = cKDTree(pa).query(pb)
+    d = np.concatenate((da, db))
+    return float(d.mean()), float(d.max())
+
+
+class Reference:
+    """A reference run directory, analysed: its settings, summary and series."""
+
+    def __init__(self, path):
+        self.path = path
+        self.setup = load_setup(path)
+        sj = os.path.join(path, "summary.json")
+        if not os.path.isfile(sj):
+            raise sp.PostprocError(f"'{path}' has no summary.json: run or analyse it first")
+        with open(sj) as f:
+            self.summary = json.load(f)
+        self.pressure = read_csv(os.path.join(path, "pressure.csv"))
+        self.integrals = read_csv(os.path.join(path, "integrals.csv"))
+
+    def interface(self, t):
+        return read_interface(os.path.join(self.path, f"interface_{t:g}.csv"))
+
+    def cavity_time(self):
+        return self.summary.get("first_cavity")
+
+
+def pressure_difference(a, b, until=None):
+    """Mean and largest |p_a - p_b| over their common tabulated times (up to
+    `until`), relative to |p(0)| of the series."""
+    t = a.pressure["t"]
+    end = min(t[-1], b.pressure["t"][-1], until if until is not None else np.inf)
+    sel = t <= end + 1e-9
+    d = np.abs(a.pressure["p"][sel] - np.interp(t[sel], b.pressure["t"], b.pressure["p"]))
+    p0 = abs(SERIES_P0[a.setup.case])
+    return float(d.mean() / p0), float(d.max() / p0)
+
+
+def study(dirs, echo=print):
+    """The reference's resolution study: each level and the differences
+    between successive levels, as markdown; returns the numbers."""
+    refs = sorted((Reference(d) for d in dirs), key=lambda r: r.setup.level)
+    if len({r.setup.case for r in refs}) != 1:
+        raise sp.PostprocError("the study's directories hold different cases")
+    case = refs[0].setup.case
+    tl = "t omega" if case == "square_rotation" else "t V0/L"
+    echo(f"### {case}: the reference at {len(refs)} levels\n")
+    echo("| level | cells per L | steps | wall time | p(0) against the series | "
+         "largest area drift | KE change at the end | first cavity |")
+    echo("|---|---|---|---|---|---|---|---|")
+    rows = []
+    for r in refs:
+        sm = r.summary
+        cav = sm.get("first_cavity")
+        wall = sm.get("wall_time_s")
+        echo(f"| {r.setup.level} | {sm['cells_per_side']:g} | {sm['steps']} | "
+             + (f"{wall:.0f} s" if wall is not None else "") + " | "
+             f"{100 * sm['p_probe_initial_error']:+.3f} % | {100 * sm['area_drift_max']:.3f} % | "
+             f"{100 * sm['kinetic_energy_change_end']:+.2f} % | "
+             + (f"{cav:.4f}" if cav is not None else "") + " |")
+        rows.append({"level": r.setup.level, "summary": sm})
+    times = INTERFACE_TIMES[case]
+    echo(f"\nBetween successive levels: the probe pressure's mean and largest difference "
+         f"over {tl} in [0, {refs[0].setup.t_end:g}] (of |p(0)|), the interfaces' mean "
+         f"distance (in L) at {tl} = {', '.join(f'{t:g}' for t in times)}, and the "
+         "first cavity's time:\n")
+    echo("| levels | p mean | p max | " + " | ".join(f"interface {t:g}" for t in times)
+         + " | cavity time |")
+    echo("|---|---|---|" + "---|" * len(times) + "---|")
+    pairs = []
+    for a, b in zip(refs[:-1], refs[1:]):
+        pm, px = pressure_difference(b, a)
+        dist = []
+        for t in times:
+            try:
+                dist.append(curve_distance(a.interface(t), b.interface(t),
+                                           ds=b.setup.dx / 4)[0])
+            except sp.PostprocError:
+                dist.append(float("nan"))
+        ca, cb = a.cavity_time(), b.cavity_time()
+        dc = (cb - ca) / cb if ca is not None and cb is not None else None
+        echo(f"| {a.setup.level}-{b.setup.level} | {100 * pm:.3f} % | {100 * px:.3f} % | "
+             + " | ".join(f"{d:.4f}" for d in dist) + " | "
+             + (f"{100 * dc:+.2f} %" if dc is not None else "") + " |")
+        pairs.append({"levels": [a.setup.level, b.setup.level], "p_mean": pm, "p_max": px,
+                      "interface_mean": dict(zip((f"{t:g}" for t in times), dist)),
+                      "cavity_time_change": dc})
+    return {"case": case, "levels": rows, "pairs": pairs}
+
+
+# ---------------------------------------------------------------------------
+# The command line
+# ---------------------------------------------------------------------------
+
+def command(argv, prog="postproc/reference"):
+    ap = argparse.ArgumentParser(prog=prog, description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest="verb", required=True)
+    r = sub.add_parser("run", help="write and run the Gerris case, then analyse it")
+    r.add_argument("case", choices=CASES)
+    r.add_argument("--input", help="the case's input file (default input/CASE.nml)")
+    r.add_argument("--level", type=int, required=True,
+                   help="Gerris's finest level: cells of side box L / 2^level")
+    r.add_argument("--ratio", type=float, default=1e-3,
+                   help="light to dense density ratio (default 1e-3)")
+    r.add_argument("--light", choices=("rest", "continue"), default="continue",
+                   help="the light phase's initial velocity: at rest, or the dense phase's "
+                   "field continued (default)")
+    r.add_argument("--light-viscosity", type=float, default=0.0,
+                   help="the light phase's kinematic viscosity (default 0: inviscid)")
+    r.add_argument("--box", type=float, default=8.0,
+                   help="the side of Gerris's square domain in units of L (default 8)")
+    r.add_argument("--dir", help="the output directory (default "
+                   "runs/reference/CASE/level_N)")
+    a = sub.add_parser("analyse", help="analyse a finished Gerris run again")
+    a.add_argument("dir")
+    st = sub.add_parser("study", help="the reference's resolution study (markdown)")
+    st.add_argument("dirs", nargs="+", help="reference run directories of one case")
+    st.add_argument("--json", help="also write the numbers to this file")
+    args = ap.parse_args(argv)
+    if args.verb == "run":
+        inp = args.input or os.path.join("input", f"{args.case}.nml")
+        s = Setup.from_input(args.case, inp, level=args.level, ratio=args.ratio,
+                             light=args.light, light_viscosity=args.light_viscosity,
+                             box=args.box)
+        out = args.dir or os.path.join("runs", "reference", args.case, f"level_{args.level}")
+        print(f"{prog}: {args.case} at level {args.level} ({1 / s.dx:g} cells per L) in {out}",
+              flush=True)
+        wall = run_gerris(s, out, echo=lambda m: print(m, flush=True))
+        analyse(out, wall=wall)
+    elif args.verb == "analyse":
+        analyse(args.dir)
+    elif args.verb == "study":
+        res = study(args.dirs)
+        if args.json:
+            with open(args.json, "w") as f:
+                json.dump(res, f, indent=1)
+    return 0
+
+
+def main(argv=None, prog="postproc/reference"):
+    return sp.main_guard(prog, lambda a: command(a, prog), sys.argv[1:] if argv is None
+                         else argv)
