@@ -57,7 +57,7 @@ LIB_OBJ   := $(sort $(addprefix $(BUILD)/,$(addsuffix .o,$(basename $(notdir $(L
 vpath %.f90 $(SRC_DIRS) tests
 vpath %.F90 $(SRC_DIRS)
 
-.PHONY: all sph debug asan test unit bench bench-pairloop decomp-study validate validate-long input-doc clean
+.PHONY: all sph debug asan test unit bench bench-pairloop decomp-study validate validate-long reference input-doc clean
 all: sph
 
 # copy then rename: replaces ./sph atomically, even while it is running
@@ -208,6 +208,22 @@ validate: sph
 # VALIDATE_ARGS="--wall-limit 10000" (or Ctrl-C), repeated until it reports.
 validate-long: sph
 	$(PYTHON) postproc/validate --reuse --fifth $(VALIDATE_ARGS)
+
+# The square patches' reference by Gerris (postproc/reference, doc/validation.md):
+# both cases at REFERENCE_LEVELS (Gerris's finest levels in a box of 8 L:
+# 32 to 256 cells per L, about 3 hours on two cores, most of it the finest),
+# levels already analysed reused; then each case's resolution study,
+# runs/reference/CASE/study.md.  Not part of `make test`.
+REFERENCE_LEVELS ?= 8 9 10 11
+reference:
+	@for c in square_rotation square_vortical; do \
+	  for l in $(REFERENCE_LEVELS); do \
+	    [ -f runs/reference/$$c/level_$$l/summary.json ] || \
+	      $(PYTHON) postproc/reference run $$c --level $$l || exit 1; \
+	  done; \
+	  $(PYTHON) postproc/reference study $(foreach l,$(REFERENCE_LEVELS),runs/reference/$$c/level_$(l)) \
+	    --json runs/reference/$$c/study.json | tee runs/reference/$$c/study.md; \
+	done
 
 # Fixed-step benchmarks at 1 and 2 ranks (minutes; needs an idle machine):
 # seconds per step, right-hand sides and particle updates per second, peak

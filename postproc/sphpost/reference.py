@@ -641,6 +641,109 @@ def study(dirs, echo=print):
     return {"case": case, "levels": rows, "pairs": pairs}
 
 
+def colour_contour(snap, h, dx, level=0.5):
+    """The free surface of a particle snapshot: the `level` contour of the
+    colour function C(x) = sum_j V_j W(|x - x_j|, h) (Wendland C2, support
+    2 h, V_j = m_j / rho_j), which is 1 inside and falls to 1/2 at the surface
+    of a uniform arrangement.  Sampled at dx / 2."""
+    x = snap["position"][:, :2]
+    vol = snap["mass"] / snap["density"]
+    g = dx / 2
+    lo = x.min(axis=0) - 2.5 * h
+    n = np.ceil((x.max(axis=0) + 2.5 * h - lo) / g).astype(int) + 1
+    grid = np.zeros((n[1], n[0]))
+    base = np.floor((x - lo) / g).astype(int)
+    reach = int(math.ceil(2 * h / g)) + 1
+    sigma = 7.0 / (4.0 * math.pi * h**2)
+    for di in range(-reach, reach + 1):
+        for dj in range(-reach, reach + 1):
+            i, j = base[:, 0] + di, base[:, 1] + dj
+            r = np.hypot(lo[0] + i * g - x[:, 0], lo[1] + j * g - x[:, 1]) / h
+            w = np.where(r < 2, sigma * (1 - r / 2) ** 4 * (1 + 2 * r), 0.0)
+            np.add.at(grid, (j, i), vol * w)
+    return contour(lo[0], lo[1], g, grid, level)
+
+
+def probe_column(run, pos):
+    """The time-series column of the run's probe at pos (in units of L)."""
+    out = run.nml.get("output", {})
+    for k in range(1, int(out.get("n_probes", 1)) + 1):
+        sec = out.get(f"probes(1:3,{k})")
+        xyz = [float(v) for v in sec[:3]] if isinstance(sec, list) else \
+            [float(out.get(f"probes({i + 1},{k})", 0.0)) for i in range(3)]
+        if all(abs(xyz[i] - pos[i] * run.case.length) < 1e-9 * run.case.length
+               for i in range(2)) and f"p_probe_{k}" in run.ts:
+            return f"p_probe_{k}"
+    raise sp.PostprocError(f"{run.path} has no probe at ({pos[0]:g} L, {pos[1]:g} L), the "
+                           "reference's: add it to &output (n_probes, probes)")
+
+
+def compare(run_dir, ref_dir, echo=print, fc=None, transition=sp.DEFAULT_TRANSITION):
+    """An sph run of a square patch against a reference: the probe pressure
+    raw and filtered, the kinetic energy's change, the free surface at the
+    interface times and the first cavity.  Returns the numbers."""
+    run = sp.Run(run_dir)
+    ref = Reference(ref_dir)
+    s = ref.setup
+    c = run.case
+    if c.name != s.case:
+        raise sp.PostprocError(f"the run is {c.name}, the reference {s.case}")
+    for what, mine, theirs in (("side", c.length, s.side), ("rho0", c.rho0, s.rho0),
+                               ("rate", c.rate if s.case == "square_rotation"
+                                else c.rate * c.length, s.rate)):
+        if abs(mine - theirs) > 1e-9 * abs(theirs):
+            raise sp.PostprocError(f"the run's {what} is {mine:g}, the reference's {theirs:g}")
+    tu, pu = s.time_unit, s.p_unit
+    t = run.time / tu
+    p = run.column(probe_column(run, s.probe)) / pu
+    end = min(t[-1], ref.pressure["t"][-1])
+    sel = t <= end + 1e-9
+    if fc is None:
+        fc, _ = sp.cutoff(c)
+    tf, _, pf = sp.lowpass(t[sel] * tu, p[sel], fc, transition)
+    tf = tf / tu
+    p0 = abs(SERIES_P0[s.case])
+    pr = np.interp(tf, ref.pressure["t"], ref.pressure["p"])
+    raw = np.abs(p[sel] - np.interp(t[sel], ref.pressure["t"], ref.pressure["p"]))
+    out = {"p_raw_mean": float(raw.mean() / p0),
+           "p_filtered_mean": float(np.mean(np.abs(pf - pr)) / p0),
+           "p_filtered_max": float(np.max(np.abs(pf - pr)) / p0)}
+    ke = run.column("kinetic_energy")[sel]
+    ker = np.interp(t[sel], ref.integrals["t"], ref.integrals["kinetic_energy"])
+    out["ke_change_difference_mean"] = float(np.mean(np.abs(ke / ke[0] - ker / ker[0])))
+    n = run.n_particles
+    dx = s.side / math.sqrt(n)
+    h = float(run.nml.get("particles", {}).get("h_over_dx", 2.0)) * dx
+    stimes = run.snapshot_times() / tu
+    out["interface"] = {}
+    for tk in INTERFACE_TIMES[s.case]:
+        k = int(np.argmin(np.abs(stimes - tk))) if len(stimes) else -1
+        if k < 0 or abs(stimes[k] - tk) > 1e-6 * max(1.0, tk):
+            continue
+        mine = [cc / s.side for cc in colour_contour(run.snapshot(k), h, dx)]
+        out["interface"][f"{tk:g}"] = curve_distance(mine, ref.interface(tk), ds=dx / 8)
+    if "fluid_cavities" in run.ts:
+        cav = run.ts["fluid_cavities"]
+        hit = np.nonzero(cav > cav[0])[0]
+        out["first_cavity"] = float(t[hit[0]]) if len(hit) else None
+        out["first_cavity_reference"] = ref.cavity_time()
+    tl = "t omega" if s.case == "square_rotation" else "t V0/L"
+    echo(f"{run.path} against the reference {ref.path} (level {s.level}, "
+         f"{1 / s.dx:g} cells per L), {tl} in [0, {end:g}]:")
+    echo(f"  probe pressure: mean |difference| raw {100 * out['p_raw_mean']:.3f} %, filtered "
+         f"{100 * out['p_filtered_mean']:.3f} % (largest {100 * out['p_filtered_max']:.3f} %) "
+         "of |p(0)|")
+    echo(f"  kinetic energy's relative change: mean |difference| "
+         f"{100 * out['ke_change_difference_mean']:.3f} %")
+    for tk, (dm, dmax) in out["interface"].items():
+        echo(f"  free surface at {tl} = {tk}: mean distance {dm:.4f} L ({dm / dx * s.side:.2f} "
+             f"dx), largest {dmax:.4f} L")
+    if "first_cavity" in out:
+        echo(f"  first cavity at {tl} = {out['first_cavity']} (reference: "
+             f"{out['first_cavity_reference']})")
+    return out
+
+
 # ---------------------------------------------------------------------------
 # The command line
 # ---------------------------------------------------------------------------
@@ -670,6 +773,10 @@ def command(argv, prog="postproc/reference"):
     st = sub.add_parser("study", help="the reference's resolution study (markdown)")
     st.add_argument("dirs", nargs="+", help="reference run directories of one case")
     st.add_argument("--json", help="also write the numbers to this file")
+    cp = sub.add_parser("compare", help="an sph run against a reference")
+    cp.add_argument("run", help="the sph run directory")
+    cp.add_argument("dir", help="the reference run directory")
+    cp.add_argument("--json", help="also write the numbers to this file")
     args = ap.parse_args(argv)
     if args.verb == "run":
         inp = args.input or os.path.join("input", f"{args.case}.nml")
@@ -683,8 +790,8 @@ def command(argv, prog="postproc/reference"):
         analyse(out, wall=wall)
     elif args.verb == "analyse":
         analyse(args.dir)
-    elif args.verb == "study":
-        res = study(args.dirs)
+    elif args.verb in ("study", "compare"):
+        res = study(args.dirs) if args.verb == "study" else compare(args.run, args.dir)
         if args.json:
             with open(args.json, "w") as f:
                 json.dump(res, f, indent=1)
