@@ -744,6 +744,68 @@ def compare(run_dir, ref_dir, echo=print, fc=None, transition=sp.DEFAULT_TRANSIT
     return out
 
 
+def figure(runs, refs, output, labels=None, dpi=110):
+    """The probe pressure of sph runs (filtered, raw faint) against the
+    references' (the paper's Figure 4 with a reference), and the free
+    surfaces at the interface times: the particles and the finest
+    reference's interface (Figures 3 and 5).  Written to output (PNG)."""
+    plt = sp.use_agg()
+    refs = sorted((Reference(d) for d in refs), key=lambda r: r.setup.level)
+    runs = [sp.Run(d) for d in runs]
+    if not refs:
+        raise sp.PostprocError("give at least one reference directory (--ref)")
+    s = refs[-1].setup
+    labels = labels or [os.path.basename(r.path.rstrip("/")) for r in runs]
+    if len(labels) != len(runs):
+        raise sp.PostprocError(f"--labels needs one label per run ({len(runs)})")
+    times = [t for t in INTERFACE_TIMES[s.case] if t <= s.t_end * (1 + 1e-12)]
+    fig = plt.figure(figsize=(12, 10))
+    gs = fig.add_gridspec(2, len(times), height_ratios=[1.1, 1])
+    ax = fig.add_subplot(gs[0, :])
+    tl = r"$t\,\omega$" if s.case == "square_rotation" else r"$t\,V_0/L$"
+    grey = np.linspace(0.75, 0.0, len(refs))
+    for g, r in zip(grey, refs):
+        ax.plot(r.pressure["t"], r.pressure["p"], color=str(g), ls="--",
+                lw=1.0 + (r is refs[-1]), label=f"Gerris, {r.summary['cells_per_side']:g} "
+                "cells per L")
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for k, (run, lab) in enumerate(zip(runs, labels)):
+        tu = s.time_unit
+        p = run.column(probe_column(run, s.probe)) / s.p_unit
+        fc, _ = sp.cutoff(run.case)
+        tf, _, pf = sp.lowpass(run.time, p, fc, sp.DEFAULT_TRANSITION)
+        col = colors[k % len(colors)]
+        ax.plot(run.time / tu, p, color=col, lw=0.5, alpha=0.35)
+        ax.plot(tf / tu, pf, color=col, lw=1.8, label=f"{lab} (SPH, filtered)")
+    ax.set_xlabel(tl)
+    unit = r"$\rho\,\omega^2 L^2$" if s.case == "square_rotation" else r"$\rho\,V_0^2$"
+    where = "A" if s.case == "square_rotation" else "(L/4, L/4)"
+    ax.set_ylabel(f"p at {where} / {unit}")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    for j, tk in enumerate(times):
+        a2 = fig.add_subplot(gs[1, j])
+        for k, run in enumerate(runs):
+            st = run.snapshot_times() / s.time_unit
+            i = int(np.argmin(np.abs(st - tk))) if len(st) else -1
+            if i >= 0 and abs(st[i] - tk) < 1e-6 * max(1, tk):
+                x = run.snapshot(i)["position"] / s.side
+                a2.scatter(x[:, 0], x[:, 1], s=0.05, color=colors[k % len(colors)],
+                           rasterized=True)
+        for c in refs[-1].interface(tk):
+            a2.plot(c[:, 0], c[:, 1], "k-", lw=0.6)
+        a2.set_aspect("equal")
+        a2.set_title(f"{tl} = {tk:g}", fontsize=9)
+        a2.tick_params(labelsize=7)
+    fig.suptitle(f"{s.case}: SPH against the Gerris reference (black: "
+                 f"{refs[-1].summary['cells_per_side']:g} cells per L)")
+    fig.tight_layout()
+    tmp = output + ".tmp.png"
+    fig.savefig(tmp, dpi=dpi)
+    os.replace(tmp, output)
+    plt.close(fig)
+
+
 # ---------------------------------------------------------------------------
 # The command line
 # ---------------------------------------------------------------------------
@@ -777,6 +839,11 @@ def command(argv, prog="postproc/reference"):
     cp.add_argument("run", help="the sph run directory")
     cp.add_argument("dir", help="the reference run directory")
     cp.add_argument("--json", help="also write the numbers to this file")
+    pl = sub.add_parser("plot", help="a figure of sph runs against references")
+    pl.add_argument("runs", nargs="*", help="sph run directories")
+    pl.add_argument("--ref", nargs="+", required=True, help="reference run directories")
+    pl.add_argument("--labels", nargs="+", help="one label per run")
+    pl.add_argument("-o", "--output", required=True, help="the PNG file to write")
     args = ap.parse_args(argv)
     if args.verb == "run":
         inp = args.input or os.path.join("input", f"{args.case}.nml")
@@ -790,6 +857,8 @@ def command(argv, prog="postproc/reference"):
         analyse(out, wall=wall)
     elif args.verb == "analyse":
         analyse(args.dir)
+    elif args.verb == "plot":
+        figure(args.runs, args.ref, args.output, args.labels)
     elif args.verb in ("study", "compare"):
         res = study(args.dirs) if args.verb == "study" else compare(args.run, args.dir)
         if args.json:
