@@ -195,7 +195,7 @@ def gerris_file(s):
 1 0 GfsSimulation GfsBox GfsGEdge {{}} {{
   PhysicalParams {{ L = {box!r} }}
   Time {{ end = {s.t_end * s.time_unit!r} }}
-  Refine {s.level}
+  Refine (fabs(x) < {0.6 * L!r} && fabs(y) < {0.6 * L!r} ? {s.level} : {s.min_level})
   VariableTracerVOF T
   VariableFiltered T1 T 1
   VariableFiltered T3 T 3
@@ -250,10 +250,9 @@ def run_gerris(s, out_dir, echo=print, progress_interval=30.0):
                 if m and now - last >= progress_interval:
                     last = now
                     t = float(m.group(2))
-                    eta = (now - start) * (t_end - t) / t if t > 0 else float("nan")
+                    eta = f"{(now - start) * (t_end - t) / t:8.1f} s" if t > 0 else "unknown"
                     echo(f"  step {int(m.group(1)):7d}  t {t / s.time_unit:8.4f}  "
-                         f"dt {float(m.group(3)):.3e}  wall {now - start:8.1f} s  "
-                         f"ETA {eta:8.1f} s")
+                         f"dt {float(m.group(3)):.3e}  wall {now - start:8.1f} s  ETA {eta}")
         except KeyboardInterrupt:
             proc.terminate()
             proc.wait()
