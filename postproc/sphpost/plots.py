@@ -27,6 +27,7 @@ import os
 import sys
 
 from . import core as sp
+from . import foreign
 
 PROG = "plots"
 
@@ -56,13 +57,15 @@ def pressure_panel(ax, run, fc, tw, label=None, raw=True, reference=None, color=
     import numpy as np
     c = run.case
     probe = run.centre_probe() or "p_probe_1"
-    t = run.time
-    p = run.column(probe)
+    run.column(probe)
+    # the probe's own samples: the time-series rows (another code's run: its
+    # probe file, or one estimate per output file)
+    t, p = run.probe_samples(probe)
     ref = reference or ("p_centre_exact" if "p_centre_exact" in run.ts else None)
     if ref == "p_centre_exact" and ref in run.ts:
         # an exact curve: the filtered pressure is P(t) + filter(p - P(t)),
         # the error filtered as postproc/errors does (sphpost.stretching_errors)
-        pex = run.ts[ref]
+        _, _, pex = run.probe_signal(probe)
         tu, _, ef = sp.lowpass(t, p - pex, fc, tw)
         pf = np.interp(tu, t, pex) + ef
     else:
@@ -73,7 +76,8 @@ def pressure_panel(ax, run, fc, tw, label=None, raw=True, reference=None, color=
                 label=f"{lab}SPH raw")
     ax.plot(tu * c.rate, pf / c.p_unit, lw=2.0, color=color, label=f"{lab}SPH filtered")
     if ref and ref in run.ts:
-        ax.plot(t * c.rate, run.ts[ref] / c.p_unit, "k--", lw=1.2,
+        tr, pr = (t, pex) if ref == "p_centre_exact" else (run.time, run.ts[ref])
+        ax.plot(tr * c.rate, pr / c.p_unit, "k--", lw=1.2,
                 label="exact (incompressible)" if ref == "p_centre_exact" else ref)
     ax.set_xlabel(tex_time(c))
     ax.set_ylabel(f"centre pressure / {UNIT_TEX.get(c.p_unit_label, c.p_unit_label)}")
@@ -228,7 +232,7 @@ def fig_ellipsoid(args):
 def fig_pressure(args):
     import numpy as np
     plt = sp.use_agg()
-    runs = [sp.Run(d) for d in args.run_dirs]
+    runs = [foreign.open_run(d, args) for d in args.run_dirs]
     labels = args.labels or [os.path.basename(r.path.rstrip("/")) for r in runs]
     if len(labels) != len(runs):
         raise sp.PostprocError(f"--labels needs one label per run ({len(runs)})")
@@ -245,7 +249,7 @@ def fig_pressure(args):
                        raw=not args.no_raw, reference=args.reference if k == 0 else "-",
                        color=col)
         probe = run.centre_probe() or "p_probe_1"
-        tu, yu, yf = sp.lowpass(run.time, run.ts[probe], fc, tw)
+        tu, yu, yf = sp.lowpass(*run.probe_samples(probe), fc, tw)
         rem = (yu - yf) / c.p_unit
         spec = np.abs(np.fft.rfft(rem * np.hanning(len(rem)))) * 2 / np.sum(np.hanning(len(rem)))
         freq = np.fft.rfftfreq(len(rem), tu[1] - tu[0]) / c.rate
@@ -367,6 +371,7 @@ def command(argv, prog="postproc/plots"):
                    help="time-series column of a reference curve "
                         "(default p_centre_exact if present)")
     p.add_argument("--no-raw", action="store_true", help="leave out the raw signals")
+    foreign.add_options(p)
     ps["pressure"] = p
     ps["square"].add_argument("--field", help="dataset to colour by (default: vorticity for "
                               "square_vortical, pressure for square_rotation)")

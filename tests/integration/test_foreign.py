@@ -279,6 +279,10 @@ def test_ellipsoid3d_and_a_run_without_ids(tmp_path):
     r = report("--case", "ellipsoid3d", write_plain_csv(tmp_path / "e3", fr))
     for k in ("pos", "vel", "ke"):
         assert math.isclose(r["mean"][k], mean[k], rel_tol=1e-9, abs_tol=1e-11), k
+    # the same 3D particles as .vtu
+    v = report("--case", "ellipsoid3d", write_vtk(tmp_path / "e3vtu", fr, "vtu"))
+    for k, val in r["mean"].items():
+        assert math.isclose(v["mean"][k], val, rel_tol=1e-12, abs_tol=1e-13), k
     # without ids: the position error is left out and said so, the rest the same
     d = write_plain_csv(tmp_path / "noid", fr, ids=False)
     q = report("--case", "ellipsoid3d", d)
@@ -347,7 +351,7 @@ def test_our_run_in_every_format_gives_its_own_report(our_run):
         assert math.isclose(r["final"]["ke"], ours["final"]["ke"], rel_tol=1e-9)
 
 
-def test_convergence_and_filter_take_foreign_runs(our_run, tmp_path):
+def test_convergence_filter_and_plots_take_foreign_runs(our_run, tmp_path):
     d, runs = our_run
     p = subprocess.run([str(POSTPROC / "convergence"), "--case", "circle2d", runs["plain"],
                         runs["vtk"], d / "run", "-o", tmp_path / "c.png", "--json",
@@ -366,6 +370,11 @@ def test_convergence_and_filter_take_foreign_runs(our_run, tmp_path):
     a = np.genfromtxt(tmp_path / "f.csv", delimiter=",", names=True)
     b = np.genfromtxt(tmp_path / "g.csv", delimiter=",", names=True)
     assert np.allclose(a["p_probe_1_filtered"], b["p_probe_1_filtered"], rtol=0, atol=1e-12)
+    png = tmp_path / "p.png"
+    p = subprocess.run([str(POSTPROC / "plots"), "pressure", "--case", "circle2d", runs["vtk"],
+                        d / "run", "--probe-file", d / "centre.csv", "-o", png, "--dpi", "40"],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0 and png.read_bytes()[:4] == b"\x89PNG", p.stdout + p.stderr
 
 
 def test_square_report_ours_and_foreign(tmp_path):
