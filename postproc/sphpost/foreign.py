@@ -240,38 +240,45 @@ TIME_IN_NAME = re.compile(r"(?:^|[_.\-])t=?([0-9]+(?:\.[0-9]*)?(?:[eE][-+]?[0-9]
 def read_plain_csv(path):
     """The plain format's CSV: '#' lines (one may be '# time = T'), a header
     of column names, then one row per particle."""
-    time, header, rows = None, None, []
     with open(path, newline="") as f:
-        for lineno, line in enumerate(f, 1):
+        lines = f.readlines()
+    time, head = None, None
+    for k, line in enumerate(lines):
+        s = line.strip()
+        if s.startswith("#"):
+            m = TIME_LINE.match(s)
+            if m and not _is_float(m.group(1)):
+                raise PostprocError(f"{path} line {k + 1}: time '{m.group(1)}' is not a number")
+            time = float(m.group(1)) if m else time
+        elif s:
+            head = k
+            break
+    if head is None:
+        raise PostprocError(f"{path}: no particles (expected a header line id,x,y,... "
+                            "and one row per particle)")
+    header = [h.strip() for h in lines[head].split(",")]
+    try:                            # numpy's parser: fast
+        arr = np.loadtxt(lines[head + 1:], delimiter=",", comments="#", ndmin=2)
+    except ValueError:
+        arr = None
+    if arr is None or arr.shape[1] != len(header):
+        # what numpy refused, line by line, for a message naming the line
+        # and the column
+        for lineno, line in enumerate(lines[head + 1:], head + 2):
             s = line.strip()
-            if not s:
-                continue
-            if s.startswith("#"):
-                m = TIME_LINE.match(s)
-                if m:
-                    try:
-                        time = float(m.group(1))
-                    except ValueError:
-                        raise PostprocError(f"{path} line {lineno}: time '{m.group(1)}' is "
-                                            "not a number")
-                continue
-            if header is None:
-                header = [h.strip() for h in s.split(",")]
+            if not s or s.startswith("#"):
                 continue
             vals = s.split(",")
             if len(vals) != len(header):
                 raise PostprocError(f"{path} line {lineno}: {len(vals)} values, expected "
                                     f"{len(header)} (the columns {','.join(header)})")
-            try:
-                rows.append([float(v) for v in vals])
-            except ValueError:
-                bad = next(h for h, v in zip(header, vals) if not _is_float(v))
-                raise PostprocError(f"{path} line {lineno}, column '{bad}': "
-                                    f"'{vals[header.index(bad)].strip()}' is not a number")
-    if header is None or not rows:
-        raise PostprocError(f"{path}: no particles (expected a header line id,x,y,... "
-                            "and one row per particle)")
-    arr = np.array(rows)
+            for h, v in zip(header, vals):
+                if not _is_float(v):
+                    raise PostprocError(f"{path} line {lineno}, column '{h}': '{v.strip()}' "
+                                        "is not a number")
+    if arr is None or len(arr) == 0:
+        raise PostprocError(f"{path}: no particles (expected one row per particle after the "
+                            "header)")
     return {h: arr[:, k] for k, h in enumerate(header)}, time, None
 
 
@@ -694,7 +701,7 @@ class ForeignRun(Run):
                 order = np.argsort(fr.ids)
                 fr.sorted_ids, fr.x0_by_id = fr.ids[order], fr.x[order]
             rows.append(self._row(fr, first))
-            if c.dim == 2 and (fr is first or f == self.snapshots[-1]):
+            if c.square and (fr is first or f == self.snapshots[-1]):
                 self.outlines[fr.t] = free_surface_outline(fr.x, self._volume(fr), self._dx)
             prev = fr
         if len(rows) < 2:
