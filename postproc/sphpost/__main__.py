@@ -7,7 +7,7 @@ import importlib
 import sys
 
 PROG = "python3 -m sphpost"
-TOOLS = ("errors", "filter", "convergence", "plots", "validate")
+TOOLS = ("errors", "filter", "convergence", "plots", "validate", "reference")
 
 
 def tool(name):

@@ -23,7 +23,7 @@ sys.path.insert(0, str(POSTPROC))
 import sphpost as sp  # noqa: E402
 
 PY = "/usr/bin/python3"
-SCRIPTS = ["errors", "filter", "convergence", "plots", "validate"]
+SCRIPTS = ["errors", "filter", "convergence", "plots", "validate", "reference"]
 
 
 def script(name, *args, check=True):
