@@ -76,19 +76,20 @@ class Setup:
     """A reference run's physical and numerical settings."""
 
     def __init__(self, case, side, rate, rho0, t_end, level, ratio=1e-3, light="continue",
-                 light_viscosity=0.0, box=8.0, tolerance=1e-6, min_level=4):
+                 light_viscosity=0.0, box=8.0, tolerance=1e-6, min_level=4, viscosity=0.0):
         if case not in CASES:
             raise sp.PostprocError(f"case '{case}': the reference knows {', '.join(CASES)}")
         self.case, self.side, self.rate, self.rho0 = case, side, rate, rho0
         self.t_end, self.level, self.ratio, self.light = t_end, level, ratio, light
         self.light_viscosity, self.box, self.tolerance = light_viscosity, box, tolerance
-        self.min_level = min_level
+        self.min_level, self.viscosity = min_level, viscosity
         for name, ok, what in (("level", 5 <= level <= 14, "5 <= level <= 14"),
                                ("ratio", 0 < ratio < 1, "0 < ratio < 1"),
                                ("light", light in ("rest", "continue"),
                                 "'rest' or 'continue'"),
                                ("light_viscosity", light_viscosity >= 0,
                                 "light_viscosity >= 0"),
+                               ("viscosity", viscosity >= 0, "viscosity >= 0"),
                                ("box", box >= 2, "box >= 2 (in units of the side)")):
             if not ok:
                 raise sp.PostprocError(f"--{name.replace('_', '-')} "
@@ -118,7 +119,7 @@ class Setup:
     def as_dict(self):
         return {k: getattr(self, k) for k in ("case", "side", "rate", "rho0", "t_end", "level",
                                               "ratio", "light", "light_viscosity", "box",
-                                              "tolerance", "min_level")}
+                                              "tolerance", "min_level", "viscosity")}
 
     @classmethod
     def from_input(cls, case, path, **kw):
@@ -176,9 +177,13 @@ def gerris_file(s):
     # recommendation for density ratios of 1000)
     alpha = f"1./({s.rho0!r}*(T1 + {s.ratio!r}*(1. - T1)))"
     visc = ""
-    if s.light_viscosity > 0:
-        # the light phase's dynamic viscosity: rho_light nu_light
-        visc = f"  SourceViscosity ({s.ratio * s.rho0 * s.light_viscosity!r}*(1. - T1))\n"
+    if s.light_viscosity > 0 or s.viscosity > 0:
+        # the dynamic viscosity: rho0 nu in the dense phase, rho_light (nu +
+        # nu_light) in the light one
+        nu = s.side**2 / s.time_unit                  # omega L^2 or V0 L
+        mu_d = s.rho0 * s.viscosity * nu
+        mu_l = s.ratio * s.rho0 * (s.viscosity + s.light_viscosity) * nu
+        visc = f"  SourceViscosity ({mu_d!r}*T1 + {mu_l!r}*(1. - T1))\n"
     # the light phase's cells within three cells of the interface: their
     # mean pressure is the surface's, the reference of the probe's
     band = "(T < 1e-6 && T3 > 1e-6 ? 1. : 0.)"
@@ -824,7 +829,11 @@ def command(argv, prog="postproc/reference"):
                    help="the light phase's initial velocity: at rest, or the dense phase's "
                    "field continued (default)")
     r.add_argument("--light-viscosity", type=float, default=0.0,
-                   help="the light phase's kinematic viscosity (default 0: inviscid)")
+                   help="the light phase's additional kinematic viscosity, in the same "
+                   "unit (default 0)")
+    r.add_argument("--viscosity", type=float, default=0.0,
+                   help="the kinematic viscosity of both phases, in L^2 times the rate "
+                   "(omega, V0/L): 1/Re (default 0: inviscid)")
     r.add_argument("--box", type=float, default=8.0,
                    help="the side of Gerris's square domain in units of L (default 8)")
     r.add_argument("--dir", help="the output directory (default "
@@ -848,7 +857,7 @@ def command(argv, prog="postproc/reference"):
         inp = args.input or os.path.join("input", f"{args.case}.nml")
         s = Setup.from_input(args.case, inp, level=args.level, ratio=args.ratio,
                              light=args.light, light_viscosity=args.light_viscosity,
-                             box=args.box)
+                             box=args.box, viscosity=args.viscosity)
         out = args.dir or os.path.join("runs", "reference", args.case, f"level_{args.level}")
         print(f"{prog}: {args.case} at level {args.level} ({1 / s.dx:g} cells per L) in {out}",
               flush=True)
