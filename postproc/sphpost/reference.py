@@ -13,12 +13,11 @@ flow.  Gerris (Debian's gerris2D, Popinet 2003, 2009) solves the
 incompressible Euler equations of two phases on an adaptive quadtree: a VOF
 tracer T marks the dense phase (the square's fluid, density rho0), the light
 phase (density --ratio rho0) stands for the void; no gravity, no surface
-tension, no viscosity unless --light-viscosity is given (doc/validation.md,
-"The square patches' reference", says what was tried and why these choices).
+tension, no viscosity unless --viscosity or --light-viscosity is given
+(doc/reference.md says what was tried and why these choices).
 
 What `run` writes into DIR (default runs/reference/CASE/level_N), all plain
-CSV with a header line, in the case's own units (doc/output.md, "Reference
-runs"):
+CSV with a header line, in the case's own units (doc/reference.md):
   pressure.csv      t, p, p_far: the pressure at the case's probe (A = the
                     centre for the rotating square, (L/4, L/4) for the vortical
                     one) less the mean of the light phase's within three cells
@@ -65,7 +64,7 @@ CAVITY_WINDOW = (1.1, 1.35)
 CAVITY_DT = 0.0025
 # The shorter windows [0, w] over which the study also compares the probe
 # pressure (the rotating square's surface is Rayleigh-Taylor unstable, so
-# that its later evolution depends on the grid: doc/validation.md).
+# that its later evolution depends on the grid: doc/reference.md).
 WINDOWS = {"square_rotation": (1.0, 1.5, 2.0), "square_vortical": (0.2,)}
 # Output spacing of the tabulated series, in the case's time unit.
 DT_OUT = 0.01
