@@ -628,7 +628,8 @@ def study(dirs, echo=print):
         rows.append({"level": r.setup.level, "summary": sm})
     times = INTERFACE_TIMES[case]
     echo(f"\nBetween successive levels: the probe pressure's mean and largest difference "
-         f"over {tl} in [0, {refs[0].setup.t_end:g}] (of |p(0)|), the interfaces' mean "
+         f"over {tl} in [0, {refs[0].setup.t_end:g}] where both probes are in the dense phase "
+         f"(of |p(0)|), the interfaces' mean "
          f"distance (in L) at {tl} = {', '.join(f'{t:g}' for t in times)}, and the "
          "first cavity's time:\n")
     wins = [w for w in WINDOWS[case] if w < refs[0].setup.t_end]
