@@ -211,10 +211,10 @@ validate-long: sph
 
 # The square patches' reference by Gerris (postproc/reference, doc/validation.md):
 # both cases at REFERENCE_LEVELS (Gerris's finest levels in a box of 8 L:
-# 32 to 256 cells per L, about 3 hours on two cores, most of it the finest),
+# 16 to 128 cells per L, about an hour on two cores, most of it the finest),
 # levels already analysed reused; then each case's resolution study,
 # runs/reference/CASE/study.md.  Not part of `make test`.
-REFERENCE_LEVELS ?= 8 9 10 11
+REFERENCE_LEVELS ?= 7 8 9 10
 reference:
 	@for c in square_rotation square_vortical; do \
 	  for l in $(REFERENCE_LEVELS); do \
