@@ -209,7 +209,7 @@ validate: sph
 validate-long: sph
 	$(PYTHON) postproc/validate --reuse --fifth $(VALIDATE_ARGS)
 
-# The square patches' reference by Gerris (postproc/reference, doc/validation.md):
+# The square patches' reference by Gerris (postproc/reference, doc/reference.md):
 # both cases at REFERENCE_LEVELS (Gerris's finest levels in a box of 8 L:
 # 16 to 128 cells per L, about an hour on two cores, most of it the finest),
 # levels already analysed reused; then each case's resolution study,
