@@ -527,8 +527,14 @@ def canonical(path, data, points, time, fmt, fields, case_dim):
     ids = _field(data, path, "id", names("id"), fmt, n)
     if ids is not None:
         ids = np.asarray(ids).astype(np.int64)
-        if len(np.unique(ids)) != n or (fmt == "pysph" and np.all(ids == UINT_MAX)):
-            ids = None          # PySPH's serial runs leave gid unset; repeated ids are none
+        if fmt == "pysph" and np.all(ids == UINT_MAX):
+            ids = None          # gid never set (get_particle_array's default)
+        else:
+            u, counts = np.unique(ids, return_counts=True)
+            if len(u) != n:
+                raise PostprocError(f"{path}: the ids repeat (id {u[np.argmax(counts)]} "
+                                    f"{counts.max()} times): expected one id per particle, "
+                                    "or no ids")
     pres = _field(data, path, "p", names("p"), fmt, n)
     rho = _field(data, path, "rho", names("rho"), fmt, n)
     mass = _field(data, path, "m", names("m"), fmt, n)

@@ -457,6 +457,14 @@ def bad_runs(base, good, frames):
     plain("no_time", lambda k, t: t.split("\n", 1)[1], ["frame_0000.csv", "no time"])
     plain("other_ids", set_line(3, 2, lambda ln: "999999" + ln[ln.index(","):]),
           ["frame_0003.csv", "particle ids are not those of frame_0000.csv"])
+    def repeat_id(k, text):
+        lines = text.splitlines()
+        if k == 0:                  # the second particle gets the first one's id
+            lines[3] = lines[2].split(",")[0] + lines[3][lines[3].index(","):]
+        return "\n".join(lines) + "\n"
+
+    plain("repeated_id", repeat_id, ["frame_0000.csv", "the ids repeat", "2 times",
+                                     "expected one id per particle"])
     plain("nan_rho", set_line(1, 3, lambda ln: ",".join(ln.split(",")[:6] + ["nan"]
                                                        + ln.split(",")[7:])),
           ["frame_0001.csv", "densities not finite"])
