@@ -91,6 +91,9 @@ def command(argv, prog="postproc/errors"):
     g.add_argument("--count", type=int, metavar="N",
                    help="tabulate N rows evenly spread in time")
     ap.add_argument("--csv", metavar="FILE", help="also write the table as CSV")
+    ap.add_argument("--reference", metavar="DIR",
+                    help="the squares: compare with this reference run of postproc/reference "
+                         "(doc/reference.md)")
     ap.add_argument("--json", action="store_true",
                     help="print the means and final values as JSON instead of the tables")
     ap.add_argument("--check-snapshots", action="store_true",
@@ -199,14 +202,16 @@ def command(argv, prog="postproc/errors"):
     return 0
 
 
-def reference_comparison(case, t, p_probe, ke):
-    """The hook for the squares' independent reference solution (to be
-    wired to sphpost.reference): given the case (CaseInfo), the run's times
-    t, its probe pressure p_probe (on the same times, or a probe file's
-    own: t and p_probe of equal length) and kinetic energy ke (on the run's
-    rows), returns a dict of the comparison's measures, or None while no
-    reference is available.  square_report prints whatever it returns."""
-    return None
+def reference_comparison(case, t, p_probe, t_ke, ke, ref_dir, fc, tw):
+    """The squares against their independent reference (postproc/reference,
+    doc/reference.md) in ref_dir: given the case (CaseInfo), the probe
+    pressure p_probe at times t and the kinetic energy ke at t_ke, the
+    numbers of sphpost.reference.series_against; None without ref_dir."""
+    if not ref_dir:
+        return None
+    from . import reference
+    return reference.series_against(case, reference.Reference(ref_dir), t, p_probe, t_ke, ke,
+                                    fc, tw)[0]
 
 
 def square_report(run, fc, tw, how, args):
@@ -250,7 +255,7 @@ def square_report(run, fc, tw, how, args):
     out["outline"] = {f"{tt:g}": dict(zip(("area", "perimeter", "curves"),
                                           foreign.outline_measures(lines)))
                       for tt, lines in (outlines or {}).items()}
-    out["reference"] = reference_comparison(c, tp, pp, ke)
+    out["reference"] = reference_comparison(c, tp, pp, t, ke, args.reference, fc, tw)
     if args.json:
         print(json.dumps(out, indent=1))
         return 0
@@ -273,11 +278,16 @@ def square_report(run, fc, tw, how, args):
         print(f"free surface at {c.time_label} = {float(tt) * c.rate:g}: area "
               f"{m['area'] / c.length**2:.5f} L^2, perimeter {m['perimeter'] / c.length:.4f} L, "
               f"{m['curves']} closed curve(s)")
-    if out["reference"] is None:
-        print("reference solution: not yet available (errors.reference_comparison)")
+    r = out["reference"]
+    if r is None:
+        print("reference solution: none given (--reference DIR, a run of postproc/reference)")
     else:
-        for k, v in out["reference"].items():
-            print(f"reference {k}: {v}")
+        print(f"against the reference {args.reference}, {c.time_label} in "
+              f"[0, {r['p_interval_end']:.3g}] (both probes in the fluid): probe pressure mean "
+              f"|difference| raw {100 * r['p_raw_mean']:.3f} %, filtered "
+              f"{100 * r['p_filtered_mean']:.3f} % of |p(0)| (to " + ", ".join(
+                  f"{w}: {100 * v:.3f} %" for w, v in r["p_filtered_mean_to"].items())
+              + f"); kinetic energy's relative change {100 * r['ke_change_difference_mean']:.3f} %")
     return 0
 
 

@@ -697,14 +697,8 @@ def probe_column(run, pos):
                            "reference's: add it to &output (n_probes, probes)")
 
 
-def compare(run_dir, ref_dir, echo=print, fc=None, transition=sp.DEFAULT_TRANSITION):
-    """An sph run of a square patch against a reference: the probe pressure
-    raw and filtered, the kinetic energy's change, the free surface at the
-    interface times and the first cavity.  Returns the numbers."""
-    run = sp.Run(run_dir)
-    ref = Reference(ref_dir)
-    s = ref.setup
-    c = run.case
+def check_case(c, s):
+    """Refuses a run (CaseInfo c) that is not the reference's flow (Setup s)."""
     if c.name != s.case:
         raise sp.PostprocError(f"the run is {c.name}, the reference {s.case}")
     for what, mine, theirs in (("side", c.length, s.side), ("rho0", c.rho0, s.rho0),
@@ -712,15 +706,25 @@ def compare(run_dir, ref_dir, echo=print, fc=None, transition=sp.DEFAULT_TRANSIT
                                 else c.rate * c.length, s.rate)):
         if abs(mine - theirs) > 1e-9 * abs(theirs):
             raise sp.PostprocError(f"the run's {what} is {mine:g}, the reference's {theirs:g}")
+
+
+def series_against(c, ref, t, p, t_ke, ke, fc=None, transition=sp.DEFAULT_TRANSITION):
+    """A run's probe pressure p(t) and kinetic energy ke(t_ke) (in the run's
+    units; c its CaseInfo) against a Reference: the probe pressure's mean
+    |difference| raw and low-pass filtered (over the whole common interval
+    where both probes are in the fluid, and over WINDOWS), in |p(0)| of the
+    series, and the mean |difference| of the kinetic energy's relative
+    change.  Returns the numbers and the interval's end (in the case's time)."""
+    s = ref.setup
+    check_case(c, s)
     tu, pu = s.time_unit, s.p_unit
-    t = run.time / tu
-    p = run.column(probe_column(run, s.probe)) / pu
+    t, p = np.asarray(t, dtype=float) / tu, np.asarray(p, dtype=float) / pu
     # where both the run's probe and the reference's are in the fluid
     wet_ref = ref.pressure["t"][np.isfinite(ref.pressure["p"])]
     end = min(t[-1], ref.pressure["t"][-1])
-    finite = np.nonzero(~np.isfinite(p))[0]
-    if len(finite):
-        end = min(end, t[max(finite[0] - 1, 0)])
+    dry = np.nonzero(~np.isfinite(p))[0]
+    if len(dry):
+        end = min(end, t[max(dry[0] - 1, 0)])
     end = min(end, wet_ref[-1] if len(wet_ref) else 0.0)
     sel = t <= end + 1e-9
     if sel.sum() < 8:
@@ -738,10 +742,28 @@ def compare(run_dir, ref_dir, echo=print, fc=None, transition=sp.DEFAULT_TRANSIT
            "p_filtered_max": float(np.max(np.abs(pf - pr)) / p0)}
     out["p_filtered_mean_to"] = {f"{w:g}": float(np.mean(np.abs(pf - pr)[tf <= w + 1e-9]) / p0)
                                  for w in WINDOWS[s.case] if w < end}
-    kel = t <= min(t[-1], ref.integrals["t"][-1]) + 1e-9
-    ke = run.column("kinetic_energy")[kel]
-    ker = np.interp(t[kel], ref.integrals["t"], ref.integrals["kinetic_energy"])
+    tk = np.asarray(t_ke, dtype=float) / tu
+    kel = tk <= min(tk[-1], ref.integrals["t"][-1]) + 1e-9
+    ke = np.asarray(ke, dtype=float)[kel]
+    ker = np.interp(tk[kel], ref.integrals["t"], ref.integrals["kinetic_energy"])
     out["ke_change_difference_mean"] = float(np.mean(np.abs(ke / ke[0] - ker / ker[0])))
+    out["p_interval_end"] = float(end)
+    return out, end
+
+
+def compare(run_dir, ref_dir, echo=print, fc=None, transition=sp.DEFAULT_TRANSITION):
+    """An sph run of a square patch against a reference: the probe pressure
+    raw and filtered, the kinetic energy's change, the free surface at the
+    interface times and the first cavity.  Returns the numbers."""
+    run = sp.Run(run_dir)
+    ref = Reference(ref_dir)
+    s = ref.setup
+    c = run.case
+    check_case(c, s)
+    tu = s.time_unit
+    t = run.time / tu
+    out, end = series_against(c, ref, run.time, run.column(probe_column(run, s.probe)),
+                              run.time, run.column("kinetic_energy"), fc, transition)
     n = run.n_particles
     dx = s.side / math.sqrt(n)
     h = float(run.nml.get("particles", {}).get("h_over_dx", 2.0)) * dx
