@@ -183,7 +183,8 @@ def test_a_run_against_a_reference_gives_the_differences_put_in(tmp_path):
     from sphpost import errors
     same = errors.reference_comparison(c, t, p_ref(t), t, ke_ref(t), str(tmp_path / "ref"),
                                        None, sp.DEFAULT_TRANSITION)
-    assert same["p_raw_mean"] < 1e-12 and same["ke_change_difference_mean"] < 1e-12
+    # (the CSV files hold 9 significant digits)
+    assert same["p_raw_mean"] < 1e-8 and same["ke_change_difference_mean"] < 1e-8
     other = sp.case_info({"run": {"case": "square_rotation"},
                           "square_rotation": {"omega": 2.0}})
     with pytest.raises(sp.PostprocError, match="rate is 2"):
