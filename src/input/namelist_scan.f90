@@ -58,6 +58,12 @@ contains
         return
       end if
       nline = nline + 1
+      ! a UTF-8 byte-order mark, which some editors write first: not text
+      ! of the namelist, so dropped (it would reach a message unseen)
+      if (nline == 1 .and. len(line) >= 3) then
+        if (ichar(line(1:1)) == 239 .and. ichar(line(2:2)) == 187 .and. &
+            ichar(line(3:3)) == 191) line = line(4:)
+      end if
       ! a binary file: said, not echoed to the terminal
       if (scan(line, CONTROL) > 0) then
         call fail(err, path, 'is not a text file', nline, &

@@ -2,7 +2,7 @@
 solution; ellipsoid3d (same code, dim = 3) runs and is accurate too."""
 import math
 
-from common import run_sph, read_timeseries
+from common import ROOT, run_sph, read_timeseries
 
 # circle2d, about 1,250 particles to t A0 = 0.25.  At this time the default
 # scheme has RMS velocity error 0.95 %, KE change -0.45 %, semi-axis errors
@@ -142,3 +142,20 @@ def test_probe_beyond_n_probes_is_warned(scratch):
                         "that probe is not sampled"], p.stdout
     ts = read_timeseries(d / "timeseries.csv")
     assert "p_probe_1" in ts and not any(k.startswith("p_probe_3") for k in ts)
+
+
+def test_a_byte_order_mark_is_skipped(scratch):
+    # an input file that an editor saved with a UTF-8 byte-order mark runs
+    # as without it: the same time series to the last bit
+    base = scratch("bom")
+    plain = (ROOT / "input" / "circle2d.nml").read_bytes()
+    (base / "bom.nml").write_bytes(b"\xef\xbb\xbf" + plain)
+    (base / "plain.nml").write_bytes(plain)
+    series = []
+    for name in ("bom", "plain"):
+        d = base / name
+        p = run_sph([base / f"{name}.nml", "particles.n=400", "run.t_end=0.02",
+                     f"output.dir={d}"], np=1)
+        assert p.returncode == 0, p.out
+        series.append((d / "timeseries.csv").read_text())
+    assert series[0] == series[1]
