@@ -103,7 +103,7 @@ $(BUILD)/deps.mk: $(DEP_SRC) | $(BUILD)
 # its PFUNIT-4.x directory, the prefix holding it or its cmake/ directory),
 # pFUnit's preprocessor and driver build them; without it, tests/pf2f90.py
 # translates them for the harness tests/testing.f90.  Either way
-# tests/run_tests.sh runs the result (README, "Unit tests").
+# tests/run_tests.sh runs the result (doc/usage.md, "Unit tests").
 PF2F90 := $(BUILD)/pf2f90
 PFB    := $(BUILD)/pfunit
 
