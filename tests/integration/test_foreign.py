@@ -394,7 +394,7 @@ def test_square_report_ours_and_foreign(tmp_path):
     for tt, m in ours["outline"].items():
         assert abs(m["area"] - 1) < 0.03 and m["curves"] == 1, (tt, m)
     text = errors(tmp_path / "run").stdout
-    assert "reference solution: not yet available" in text and "free surface at" in text
+    assert "reference solution: none given" in text and "free surface at" in text
 
 
 # ---------------------------------------------------------------------------
