@@ -384,6 +384,12 @@ class Run:
 
     def centre_probe(self):
         """Column name of the probe at the centre (all coordinates 0), or None."""
+        return self.probe_at((0.0,) * self.case.dim, 1e-12)
+
+    def probe_at(self, point, tol):
+        """Column name of the first probe within tol of point in each of the
+        point's coordinates (output.probes of input.nml; a probe not set is
+        at the origin), or None."""
         out = self.nml.get("output", {})
         n = int(out.get("n_probes", 1)) if self.nml else 1
         for k in range(1, n + 1):
@@ -398,7 +404,7 @@ class Run:
             sec = out.get(f"probes(1:3,{k})")
             if isinstance(sec, list):
                 pos = [float(v) for v in sec[:3]]
-            if all(abs(p) < 1e-12 for p in pos[:self.case.dim]):
+            if all(abs(p - q) < tol for p, q in zip(pos, point)):
                 return key
         return None
 

@@ -47,6 +47,7 @@ import time
 import numpy as np
 
 from . import core as sp
+from . import foreign
 
 PROG = "reference"
 CASES = ("square_rotation", "square_vortical")
@@ -106,7 +107,7 @@ class Setup:
     @property
     def probe(self):
         """The probe's position in units of L."""
-        return (0.0, 0.0) if self.case == "square_rotation" else (0.25, 0.25)
+        return foreign.PROBES[self.case]
 
     @property
     def p_unit(self):
@@ -440,16 +441,20 @@ def analyse(ref_dir, echo=print, wall=None):
         raise sp.PostprocError(f"{ref_dir}: the Gerris run ends at t = {probe['t'][-1]:g}, "
                                f"before t_end = {s.t_end * tu:g}")
     tg = probe["t"]
-    t, p, dropped = pressure_samples(tg, probe["P"] - surface_pressure(ref_dir, tg))
-    t, p = t / tu, p / pu
-    p0 = initial_value(t, p, 0.02)
-    grid_t, grid_p = tabulate(t, p, t_end, t0_value=p0)
+
+    def tabulated(p_ambient):
+        """The probe's pressure less p_ambient every DT_OUT, p(0) and the
+        samples dropped."""
+        t, p, dropped = pressure_samples(tg, probe["P"] - p_ambient)
+        t, p = t / tu, p / pu
+        p0 = initial_value(t, p, 0.02)
+        return tabulate(t, p, t_end, t0_value=p0), p0, dropped
+
+    (grid_t, grid_p), p0, dropped = tabulated(surface_pressure(ref_dir, tg))
     # the same against the light phase at the far corner, for comparison
-    tf, pf, _ = pressure_samples(tg, probe["P"] - far["P"])
-    tf, pf = tf / tu, pf / pu
-    _, grid_pf = tabulate(tf, pf, t_end, t0_value=initial_value(tf, pf, 0.02))
+    (_, grid_pf), _, _ = tabulated(far["P"])
     # no pressure where the probe is in the light phase (the vortical square's
-    # probe at (L/4, L/4) is left by the fluid at about t V0/L = 0.47)
+    # probe at (L/4, L/4) is left by the fluid at about t V0/L = 0.39)
     wet = np.interp(grid_t, tg / tu, probe["T"]) >= 0.5
     grid_p, grid_pf = np.where(wet, grid_p, np.nan), np.where(wet, grid_pf, np.nan)
     write_csv(os.path.join(ref_dir, "pressure.csv"), ("t", "p", "p_far"),
@@ -685,16 +690,12 @@ def colour_contour(snap, h, dx, level=0.5):
 
 def probe_column(run, pos):
     """The time-series column of the run's probe at pos (in units of L)."""
-    out = run.nml.get("output", {})
-    for k in range(1, int(out.get("n_probes", 1)) + 1):
-        sec = out.get(f"probes(1:3,{k})")
-        xyz = [float(v) for v in sec[:3]] if isinstance(sec, list) else \
-            [float(out.get(f"probes({i + 1},{k})", 0.0)) for i in range(3)]
-        if all(abs(xyz[i] - pos[i] * run.case.length) < 1e-9 * run.case.length
-               for i in range(2)) and f"p_probe_{k}" in run.ts:
-            return f"p_probe_{k}"
-    raise sp.PostprocError(f"{run.path} has no probe at ({pos[0]:g} L, {pos[1]:g} L), the "
-                           "reference's: add it to &output (n_probes, probes)")
+    L = run.case.length
+    key = run.probe_at((pos[0] * L, pos[1] * L), 1e-9 * L)
+    if key is None:
+        raise sp.PostprocError(f"{run.path} has no probe at ({pos[0]:g} L, {pos[1]:g} L), the "
+                               "reference's: add it to &output (n_probes, probes)")
+    return key
 
 
 def check_case(c, s):
@@ -759,7 +760,6 @@ def compare(run_dir, ref_dir, echo=print, fc=None, transition=sp.DEFAULT_TRANSIT
     ref = Reference(ref_dir)
     s = ref.setup
     c = run.case
-    check_case(c, s)
     tu = s.time_unit
     t = run.time / tu
     out, end = series_against(c, ref, run.time, run.column(probe_column(run, s.probe)),
