@@ -11,15 +11,16 @@
 !> message the same on every rank, so that all ranks take the same branch
 !> after an I/O step that only some of them (or only rank 0) performed.
 module fileutil
-  use, intrinsic :: iso_c_binding, only: c_char, c_int, c_ptr, c_null_char, &
+  use, intrinsic :: iso_c_binding, only: c_char, c_int, c_long, c_ptr, c_null_char, &
                                          c_associated, c_f_pointer, c_size_t
+  use kinds, only: i8
   use mpi_f08, only: MPI_Comm, MPI_Comm_rank, MPI_Comm_size, MPI_Allreduce, &
                      MPI_Bcast, MPI_IN_PLACE, MPI_INTEGER, MPI_MIN, MPI_CHARACTER
   implicit none
   private
   public :: make_directory, rename_file, file_exists, remove_file, is_directory
   public :: make_temp_directory, temp_path, base_name, dir_name, join_path
-  public :: agree_ok
+  public :: agree_ok, free_bytes
   public :: text_buffer_t, text_append, write_file_atomic
 
   !> A growing text: s(1:n) is the content, the rest spare capacity, so that
@@ -89,6 +90,16 @@ module fileutil
       type(c_ptr) :: p
     end function c_strerror
 
+    ! struct statvfs is 11 unsigned longs and 6 ints on x86_64 and aarch64
+    ! glibc; `buf` is larger than that, and only words 2 (f_frsize) and 5
+    ! (f_bavail) are read
+    function c_statvfs(path, buf) bind(c, name='statvfs') result(r)
+      import :: c_char, c_int, c_long
+      character(kind=c_char), intent(in) :: path(*)
+      integer(c_long), intent(out) :: buf(*)
+      integer(c_int) :: r
+    end function c_statvfs
+
     function c_strlen(s) bind(c, name='strlen') result(n)
       import :: c_ptr, c_size_t
       type(c_ptr), value :: s
@@ -147,6 +158,16 @@ contains
       errmsg = 'cannot rename "' // old // '" to "' // new // '": ' // strerror(errno())
     end if
   end subroutine rename_file
+
+  !> The bytes an unprivileged writer may still use on the file system of
+  !> `path` (statvfs: f_bavail f_frsize); -1 if that cannot be told.
+  integer(i8) function free_bytes(path)
+    character(len=*), intent(in) :: path
+    integer(c_long) :: buf(32)
+    buf = 0
+    free_bytes = -1
+    if (c_statvfs(c_str(path), buf) == 0) free_bytes = int(buf(5), i8) * int(buf(2), i8)
+  end function free_bytes
 
   !> True if `path` names an existing file or directory.
   logical function file_exists(path)

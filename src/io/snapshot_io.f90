@@ -26,7 +26,7 @@ module snapshot_io
   use shares, only: share_range
   use mpi_f08, only: MPI_Comm, MPI_Comm_rank, MPI_Comm_size, MPI_Exscan, MPI_Allreduce, &
                      MPI_INTEGER8, MPI_INTEGER, MPI_SUM, MPI_MAX, MPI_INFO_NULL, MPI_IN_PLACE
-  use hdf5, only: hid_t, hsize_t, size_t, h5open_f, &
+  use hdf5, only: hid_t, hsize_t, size_t, h5open_f, h5close_f, &
                   h5fcreate_f, h5fopen_f, h5fclose_f, H5F_ACC_TRUNC_F, H5F_ACC_RDONLY_F, &
                   h5fis_hdf5_f, h5eset_auto_f, &
                   h5pcreate_f, h5pclose_f, h5pset_fapl_mpio_f, h5pset_dxpl_mpio_f, &
@@ -44,7 +44,7 @@ module snapshot_io
                   h5kind_to_type, H5_INTEGER_KIND, &
                   h5gget_info_f, h5lget_name_by_idx_f, H5_INDEX_NAME_F, H5_ITER_INC_F
   use fileutil, only: temp_path, rename_file, remove_file, agree_ok, base_name, dir_name, &
-                      file_exists, is_directory, text_buffer_t, text_append, write_file_atomic
+                      file_exists, is_directory, text_buffer_t, text_append, write_file_atomic, free_bytes
   implicit none
   private
   public :: snapshot_field_t, snapshot_source_t, snapshot_t, xdmf_index_t
@@ -177,7 +177,7 @@ contains
     type(xdmf_index_t), intent(inout), optional :: index
     class(snapshot_source_t), intent(inout), optional :: source
 
-    integer(i8) :: n8, offset, n_global
+    integer(i8) :: n8, offset, n_global, need
     integer(hid_t) :: file_id, dxpl
     integer :: err, k, rank, nfields, counts(2)
     character(len=:), allocatable :: tmp, rel
@@ -205,8 +205,16 @@ contains
     if (rank == 0) offset = 0
     call MPI_Allreduce(n8, n_global, 1, MPI_INTEGER8, MPI_SUM, comm)
 
+    ! ---- room for it: a full disk is said in one line, before HDF5 fails ----
+    need = needed_bytes()
+    if (rank == 0) call check_room(ok, errmsg)
+    call agree_ok(comm, ok, errmsg)
+    if (.not. ok) return
+
     ! ---- the file, under its temporary name ----
     call h5open_f(err)
+    ! what fails is said in errmsg: HDF5's own error stack is not printed
+    call h5eset_auto_f(0, err)
     tmp = temp_path(filename)
     file_id = -1
     dxpl = -1
@@ -264,6 +272,19 @@ contains
       if (dxpl >= 0) call h5pclose_f(dxpl, err)
       if (file_id >= 0) call h5fclose_f(file_id, err)
     end if
+    if (.not. ok) then
+      ! the disk filled while writing (another process, a larger estimate)
+      if (room_left() < need) then
+        rel = errmsg
+        errmsg = 'no space left on device writing "' // filename // '" (' // rel // ')'
+      end if
+      ! a file whose flush failed stays open in HDF5, which would close it
+      ! again at exit, after MPI_Finalize, and crash: end the library now
+      ! (its next start prints HDF5's errors again, as does this)
+      call h5close_f(err)
+    else
+      call h5eset_auto_f(1, err)
+    end if
     call agree_ok(comm, ok, errmsg)
 
     ! ---- publish: rename on rank 0 (after every rank has closed the file) ----
@@ -287,6 +308,41 @@ contains
     end if
 
   contains
+
+    !> The file's size, from below: the datasets' bytes, without HDF5's own.
+    integer(i8) function needed_bytes() result(b)
+      integer :: j
+      b = 4 * n_global                                    ! connectivity
+      do j = 1, nfields
+        if (kind_of(fields(j)) == 'v') then
+          b = b + 8 * dim * n_global
+        else
+          b = b + 8 * n_global
+        end if
+      end do
+    end function needed_bytes
+
+    !> The free bytes where the file goes (huge if that cannot be told).
+    integer(i8) function room_left() result(b)
+      b = free_bytes(dir_name(filename))
+      if (b < 0) b = huge(b)
+    end function room_left
+
+    subroutine check_room(good, msg)
+      logical, intent(out) :: good
+      character(len=:), allocatable, intent(out) :: msg
+      integer(i8) :: free
+      character(len=64) :: s
+      free = room_left()
+      good = free >= need
+      msg = ''
+      if (.not. good) then
+        write(s, '(f12.3)') real(free, wp) / 1e6_wp
+        msg = 'no space left on device for "' // filename // '": ' // trim(adjustl(s))
+        write(s, '(f12.3)') real(need, wp) / 1e6_wp
+        msg = msg // ' MB free, the snapshot needs at least ' // trim(adjustl(s)) // ' MB'
+      end if
+    end subroutine check_room
 
     !> A computed field: made by `source`, its shape agreed on by the ranks
     !> (it is only known now), written, and freed on return.
