@@ -667,18 +667,18 @@ class ForeignRun(Run):
                                 "square_rotation or square_vortical")
         self.case = self._case(name, args)
         c = self.case
-        fields = parse_fields(getattr(args, "fields", None))
+        self._fields = parse_fields(getattr(args, "fields", None))
+        self._pysph_array = getattr(args, "pysph_array", None)
+        self._output_dt = getattr(args, "output_dt", None)
         self.snapshots, self.format = find_files(str(path), getattr(args, "format", None),
                                                  getattr(args, "pattern", None))
-        centre = np.zeros(c.dim)
+        self._centre = np.zeros(c.dim)
         if getattr(args, "centre", None):
-            centre = np.array(_numbers(args.centre, "--centre", (c.dim,)))
-        pvd = pvd_times(os.path.dirname(self.snapshots[0]) or ".")
+            self._centre = np.array(_numbers(args.centre, "--centre", (c.dim,)))
+        self._pvd = pvd_times(os.path.dirname(self.snapshots[0]) or ".")
         rows, first, prev = [], None, None
         for f in self.snapshots:
-            fr = read_frame(f, self.format, fields, c.dim, getattr(args, "pysph_array", None))
-            fr.t = self._time(fr, pvd, getattr(args, "output_dt", None))
-            fr.x = fr.x - centre
+            fr = self._frame(f)
             if prev is not None and not fr.t > prev.t:
                 raise PostprocError(f"{f}: time {fr.t:g} is not after the time {prev.t:g} of "
                                     f"{os.path.basename(prev.path)}: the times are not sorted "
@@ -718,6 +718,14 @@ class ForeignRun(Run):
         if getattr(args, "probe_file", None):
             # '{}' stands for the run's path: one option for several runs
             self.probe = self._read_probe(args.probe_file.replace("{}", str(path)))
+
+    def _frame(self, path):
+        """One output file as a Frame, its time set and its positions taken
+        about --centre."""
+        fr = read_frame(path, self.format, self._fields, self.case.dim, self._pysph_array)
+        fr.t = self._time(fr, self._pvd, self._output_dt)
+        fr.x = fr.x - self._centre
+        return fr
 
     # -- the case in the options' units --------------------------------
     @staticmethod
@@ -886,8 +894,30 @@ class ForeignRun(Run):
         return self.time
 
     def snapshot(self, index):
-        raise PostprocError(f"{self.path}: another code's run has no sph snapshots "
-                            "(--check-snapshots, --velocity-split and the figures need ours)")
+        """Output file `index` as core.Run.snapshot gives ours: position,
+        velocity and what else the file has (pressure, density, mass, id),
+        sorted by id when there are ids, and 'attrs' with the time and, for
+        the stretching cases, the exact semi-axes and centre pressure."""
+        fr = self._frame(self.snapshots[index])
+        order = np.argsort(fr.ids) if fr.ids is not None else np.arange(fr.n)
+        out = {"position": fr.x[order], "velocity": fr.u[order]}
+        for key, v in (("pressure", fr.p), ("density", fr.rho), ("mass", fr.m),
+                       ("id", fr.ids)):
+            if v is not None:
+                out[key] = v[order]
+        if "mass" not in out:
+            out["mass"] = self._masses(fr)[order]
+        if "density" not in out:
+            out["density"] = out["mass"] / self._volume(fr)[order]
+        c = self.case
+        attrs = {"time": fr.t, "dim": c.dim, "case": c.name}
+        if c.stretching:
+            ex = exact.stretching(fr.t, c.rates, c.length, c.rho0)
+            for k in range(c.dim):
+                attrs[f"semi_axes_exact_{k + 1}"] = float(ex.a[0][k])
+            attrs["p_centre_exact"] = float(ex.P[0])
+        out["attrs"] = attrs
+        return out
 
     def centre_probe(self):
         if self.probe is not None or np.isfinite(self.ts["p_probe_1"]).sum() >= 2:

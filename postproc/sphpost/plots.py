@@ -1,4 +1,4 @@
-"""plots: the paper's figures from our own runs (PNG, matplotlib Agg).
+"""plots: the paper's figures from our runs or another code's (PNG, matplotlib Agg).
 
 Subcommands:
   circle RUN_DIR      Figure 1 (circle2d): particles coloured by p/(rho A0^2 R^2)
@@ -13,7 +13,11 @@ Subcommands:
                       one, and the spectrum of the part the filter removes with
                       the acoustic frequency marked.
   square RUN_DIR      Figures 3 and 5 (square patches): particles coloured by
-                      pressure or vorticity at chosen times.
+                      pressure or vorticity at chosen times, with --ref the
+                      reference's interface dashed.
+
+Another code's output directory needs --case and, where its names or units
+differ from ours, --fields and the unit options (doc/postproc.md).
 
 Each writes the PNG named by -o (default: RUN_DIR/<subcommand>.png).
 
@@ -88,14 +92,18 @@ def first_and_last(args, case, what):
     """The run of args.run_dir, which must be of `case` with at least two
     snapshots (for the plot `what`): the run, its filter's cut-off and
     transition, and its first and last snapshots."""
-    run = sp.Run(args.run_dir)
+    run = foreign.open_run(args.run_dir, args)
     c = run.case
     if c.name != case:
         raise sp.PostprocError(f"'{what}' plots {case} runs; {run.path} is {c.name}")
     if len(run.snapshots) < 2:
         raise sp.PostprocError(f"{run.path} needs at least two snapshots (t = 0 and the end)")
     fc, tw, _ = sp.filter_from_args(c, args)
-    return run, fc, tw, run.snapshot(0), run.snapshot(-1)
+    first, last = run.snapshot(0), run.snapshot(-1)
+    if "pressure" not in first:
+        raise sp.PostprocError(f"{run.snapshots[0]}: no pressure, which '{what}' colours "
+                               "the particles by")
+    return run, fc, tw, first, last
 
 
 def fig_circle(args):
@@ -275,12 +283,17 @@ def fig_pressure(args):
 def fig_square(args):
     import numpy as np
     plt = sp.use_agg()
-    run = sp.Run(args.run_dir)
+    run = foreign.open_run(args.run_dir, args)
     c = run.case
     if not c.square:
         raise sp.PostprocError(f"'square' plots a square-patch run; {run.path} is {c.name}")
     if not run.snapshots:
         raise sp.PostprocError(f"{run.path} has no snapshots")
+    ref = None
+    if getattr(args, "ref", None):
+        from . import reference
+        ref = reference.Reference(args.ref)
+        reference.check_case(c, ref.setup)
     field = args.field or ("vorticity" if c.name == "square_vortical" else "pressure")
     times = args.times or ([0.0, 0.4, 1.5] if c.name == "square_vortical" else [0.0, 4.0])
     snap_t = run.snapshot_times() * c.rate
@@ -288,6 +301,8 @@ def fig_square(args):
     for ax, tw in zip(axes[0], times):
         i = int(np.argmin(np.abs(snap_t - tw)))
         s = run.snapshot(i)
+        if field not in s and not args.field and "pressure" in s:
+            field = "pressure"          # another code's files: no vorticity
         if field not in s:
             raise sp.PostprocError(f"snapshot {run.snapshots[i]} has no dataset '{field}'")
         v = s[field] / (c.p_unit if field == "pressure" else c.rate)
@@ -302,6 +317,18 @@ def fig_square(args):
         sc = ax.scatter(x[:, 0], x[:, 1], c=v, s=marker_size(3.8, 2 * ext, run.dx),
                         cmap="RdBu_r" if field != "pressure" else "viridis", linewidths=0,
                         vmin=vmin, vmax=vmax, rasterized=True)
+        if ref is not None:
+            # the reference's interface at this time, dashed (the paper's
+            # Figure 3: the BEM free surface; here Gerris's 0.5 contour of T)
+            lines = []
+            for tr in reference.INTERFACE_TIMES[c.name]:
+                if abs(snap_t[i] - tr) < 1e-6 * tr and tr <= ref.setup.t_end * (1 + 1e-12):
+                    lines = ref.interface(tr)
+            for k, line in enumerate(lines):
+                ax.plot(line[:, 0] * c.length, line[:, 1] * c.length, "k--", lw=0.9,
+                        label=None if k else "reference interface")
+            if lines:
+                ax.legend(loc="lower left", fontsize=7)
         ax.set_aspect("equal")
         ax.set_xlim(-ext, ext)
         ax.set_ylim(-ext, ext)
@@ -377,6 +404,11 @@ def command(argv, prog="postproc/plots"):
                               "square_vortical, pressure for square_rotation)")
     ps["square"].add_argument("--times", type=float, nargs="+",
                               help="times in the case's unit (default: the paper's)")
+    ps["square"].add_argument("--ref", metavar="DIR",
+                              help="a reference run (postproc/reference): its interface "
+                              "dashed at the times it has")
+    for name in ("circle", "ellipsoid", "square"):
+        foreign.add_options(ps[name])
     for p in ps.values():
         p.add_argument("-o", "--output", metavar="PNG", help="output file")
         p.add_argument("--dpi", type=int, default=130)

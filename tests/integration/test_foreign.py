@@ -8,6 +8,9 @@ import math
 import subprocess
 import sys
 
+import matplotlib
+matplotlib.use("Agg")
+import matplotlib.image  # noqa: E402
 import numpy as np
 import pytest
 
@@ -554,3 +557,25 @@ def test_exact_api_against_the_reference_values():
     assert math.isclose(exact.square_rotation_kinetic_energy(), 1 / 12)
     with pytest.raises(ValueError):
         exact.stretching(1.0, rates=(-1, 2))
+
+
+def test_the_papers_figures_of_a_foreign_run_are_ours(our_run, tmp_path):
+    # Figure 1 drawn from our run directory and from the same run written as
+    # plain CSV and as VTK: the same picture to the pixel (same particles,
+    # same probe series, same exact solution)
+    d, runs = our_run
+    c0 = str(sp.Run(d / "run").case.c0)
+    pictures = {}
+    for name, args in (("ours", [d / "run"]),
+                       ("plain", ["--case", "circle2d", runs["plain"], "--c0", c0,
+                                  "--probe-file", d / "centre.csv"]),
+                       ("vtk", ["--case", "circle2d", runs["vtk"], "--c0", c0,
+                                "--probe-file", d / "centre.csv"])):
+        png = tmp_path / f"{name}.png"
+        p = subprocess.run([str(POSTPROC / "plots"), "circle", *args, "-o", png, "--dpi", "50"],
+                           capture_output=True, text=True, timeout=120)
+        assert p.returncode == 0, p.stdout + p.stderr
+        pictures[name] = matplotlib.image.imread(png)
+    assert pictures["ours"].shape == pictures["plain"].shape
+    assert np.array_equal(pictures["ours"], pictures["plain"])
+    assert np.array_equal(pictures["ours"], pictures["vtk"])

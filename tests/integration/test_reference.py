@@ -11,7 +11,7 @@ import sys
 import numpy as np
 import pytest
 
-from common import ROOT
+from common import ROOT, run_sph
 
 sys.path.insert(0, str(ROOT / "postproc"))
 from sphpost import core as sp  # noqa: E402
@@ -189,3 +189,48 @@ def test_a_run_against_a_reference_gives_the_differences_put_in(tmp_path):
                           "square_rotation": {"omega": 2.0}})
     with pytest.raises(sp.PostprocError, match="rate is 2"):
         ref.series_against(other, r, t, p_ref(t), t, ke_ref(t))
+
+
+def test_a_missing_gerris_is_named_with_its_packages(tmp_path):
+    # without gerris2D on PATH: one line naming the Debian packages, status 2
+    p = subprocess.run([str(ROOT / "postproc" / "reference"), "run", "square_rotation",
+                        "--level", "7", "--dir", str(tmp_path / "ref")],
+                       capture_output=True, text=True, timeout=60,
+                       env={"PATH": str(tmp_path), "HOME": str(tmp_path)})
+    assert p.returncode == 2, p.stdout + p.stderr
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and "gerris2D not found" in lines[0], p.stderr
+    assert "gerris" in lines[0] and "libgfs-dev" in lines[0]
+
+
+def test_figure_3_of_a_foreign_run_with_the_reference_interface(tmp_path):
+    # plots square of our run and of the same run as plain CSV, with a
+    # reference's interface dashed at t omega = 1: the same picture, and
+    # not the picture without the reference
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.image
+    sys.path.insert(0, str(ROOT / "tests" / "integration"))
+    from test_foreign import our_frames, write_plain_csv
+    p = run_sph(["input/square_rotation.nml", "particles.n=400", "run.t_end=1.0",
+                 "output.dt=0.5", f"output.dir={tmp_path / 'run'}"])
+    assert p.returncode == 0, p.out
+    plain = write_plain_csv(tmp_path / "plain", our_frames(tmp_path / "run"))
+    s = ref.Setup("square_rotation", 1.0, 1.0, 1.0, 1.0, level=8)
+    fake_reference(tmp_path / "ref", s, lambda t: -0.147343 + 0 * t, lambda t: 1 / 12 + 0 * t)
+    th = np.linspace(0, 2 * np.pi, 101)
+    ref.write_csv(str(tmp_path / "ref" / "interface_1.csv"), ("piece", "x", "y"),
+                  zip(np.zeros(101, int), 0.6 * np.cos(th), 0.6 * np.sin(th)))
+    pics = {}
+    for name, args in (("ours", [tmp_path / "run", "--ref", tmp_path / "ref"]),
+                       ("plain", ["--case", "square_rotation", "--c0", "7", plain,
+                                  "--ref", tmp_path / "ref"]),
+                       ("bare", [tmp_path / "run"])):
+        png = tmp_path / f"{name}.png"
+        q = subprocess.run([str(ROOT / "postproc" / "plots"), "square", *map(str, args),
+                            "--times", "0", "1", "-o", str(png), "--dpi", "40"],
+                           capture_output=True, text=True, timeout=120)
+        assert q.returncode == 0, q.stdout + q.stderr
+        pics[name] = matplotlib.image.imread(png)
+    assert np.array_equal(pics["ours"], pics["plain"])
+    assert not np.array_equal(pics["ours"], pics["bare"])
