@@ -80,13 +80,14 @@ class Setup:
     """A reference run's physical and numerical settings."""
 
     def __init__(self, case, side, rate, rho0, t_end, level, ratio=1e-3, light="continue",
-                 light_viscosity=0.0, box=8.0, tolerance=1e-6, min_level=4, viscosity=0.0):
+                 light_viscosity=0.0, box=8.0, tolerance=1e-6, min_level=4, viscosity=0.0,
+                 tension=0.0):
         if case not in CASES:
             raise sp.PostprocError(f"case '{case}': the reference knows {', '.join(CASES)}")
         self.case, self.side, self.rate, self.rho0 = case, side, rate, rho0
         self.t_end, self.level, self.ratio, self.light = t_end, level, ratio, light
         self.light_viscosity, self.box, self.tolerance = light_viscosity, box, tolerance
-        self.min_level, self.viscosity = min_level, viscosity
+        self.min_level, self.viscosity, self.tension = min_level, viscosity, tension
         for name, ok, what in (("level", 5 <= level <= 14, "5 <= level <= 14"),
                                ("ratio", 0 < ratio < 1, "0 < ratio < 1"),
                                ("light", light in ("rest", "continue"),
@@ -94,6 +95,7 @@ class Setup:
                                ("light_viscosity", light_viscosity >= 0,
                                 "light_viscosity >= 0"),
                                ("viscosity", viscosity >= 0, "viscosity >= 0"),
+                               ("tension", tension >= 0, "tension >= 0"),
                                ("box", box >= 2, "box >= 2 (in units of the side)")):
             if not ok:
                 raise sp.PostprocError(f"--{name.replace('_', '-')} "
@@ -123,7 +125,7 @@ class Setup:
     def as_dict(self):
         return {k: getattr(self, k) for k in ("case", "side", "rate", "rho0", "t_end", "level",
                                               "ratio", "light", "light_viscosity", "box",
-                                              "tolerance", "min_level", "viscosity")}
+                                              "tolerance", "min_level", "viscosity", "tension")}
 
     @classmethod
     def from_input(cls, case, path, **kw):
@@ -188,6 +190,12 @@ def gerris_file(s):
         mu_d = s.rho0 * s.viscosity * nu
         mu_l = s.ratio * s.rho0 * (s.viscosity + s.light_viscosity) * nu
         visc = f"  SourceViscosity ({mu_d!r}*T1 + {mu_l!r}*(1. - T1))\n"
+    vof, tension = "VariableTracerVOF T", ""
+    if s.tension > 0:
+        # surface tension sigma = tension p_unit L, the curvature by height
+        # functions (Popinet, J. Comput. Phys. 228, 2009)
+        vof = "VariableTracerVOFHeight T\n  VariableCurvature K T"
+        tension = f"  SourceTension T {s.tension * s.p_unit * s.side!r} K\n"
     # the light phase's cells within three cells of the interface: their
     # mean pressure is the surface's, the reference of the probe's
     band = "(T < 1e-6 && T3 > 1e-6 ? 1. : 0.)"
@@ -205,13 +213,13 @@ def gerris_file(s):
   PhysicalParams {{ L = {box!r} }}
   Time {{ end = {s.t_end * s.time_unit!r} }}
   Refine (fabs(x) < {0.6 * L!r} && fabs(y) < {0.6 * L!r} ? {s.level} : {s.min_level})
-  VariableTracerVOF T
+  {vof}
   VariableFiltered T1 T 1
   VariableFiltered T3 T 3
   InitFraction T ({{ return MIN({h!r} - fabs(x), {h!r} - fabs(y)); }})
   Init {{}} {{ U = {u} V = {v} }}
   PhysicalParams {{ alpha = {alpha} }}
-{visc}  ApproxProjectionParams {{ tolerance = {s.tolerance!r} }}
+{visc}{tension}  ApproxProjectionParams {{ tolerance = {s.tolerance!r} }}
   ProjectionParams {{ tolerance = {s.tolerance!r} }}
   AdaptFunction {{ istep = 1 }} {{ cmax = 0.01 maxlevel = {s.level} minlevel = {s.min_level} }} T
   AdaptGradient {{ istep = 1 }} {{ cmax = 1e-3 maxlevel = {s.level} minlevel = {s.min_level} }} T
@@ -884,6 +892,9 @@ def command(argv, prog="postproc/reference"):
     r.add_argument("--viscosity", type=float, default=0.0,
                    help="the kinematic viscosity of both phases, in L^2 times the rate "
                    "(omega, V0/L): 1/Re (default 0: inviscid)")
+    r.add_argument("--tension", type=float, default=0.0,
+                   help="surface tension in p_unit L (rho omega^2 L^3, rho V0^2 L): 1/We, "
+                   "a regularisation of the Rayleigh-Taylor unstable surface (default 0)")
     r.add_argument("--box", type=float, default=8.0,
                    help="the side of Gerris's square domain in units of L (default 8)")
     r.add_argument("--dir", help="the output directory (default "
@@ -907,7 +918,8 @@ def command(argv, prog="postproc/reference"):
         inp = args.input or os.path.join("input", f"{args.case}.nml")
         s = Setup.from_input(args.case, inp, level=args.level, ratio=args.ratio,
                              light=args.light, light_viscosity=args.light_viscosity,
-                             box=args.box, viscosity=args.viscosity)
+                             box=args.box, viscosity=args.viscosity,
+                             tension=args.tension)
         out = args.dir or os.path.join("runs", "reference", args.case, f"level_{args.level}")
         print(f"{prog}: {args.case} at level {args.level} ({1 / s.dx:g} cells per L) in {out}",
               flush=True)

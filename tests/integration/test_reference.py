@@ -43,11 +43,18 @@ def test_the_gerris_case_follows_the_input_file(tmp_path):
     text = ref.gerris_file(s)
     assert "probe.dat { 0.5 0.5 0 }" in text and "Time { end = 1.0 }" in text
     assert "scan-%g.txt" in text and "exp(-4.0*4.0" not in text
+    assert "SourceTension" not in text and "VariableTracerVOF T" in text
+    # a surface tension of 1e-4 rho V0^2 L: sigma = 1e-4 * 1 * 9 * 2 = 1.8e-3
+    s = ref.Setup.from_input("square_vortical", str(nml), level=7, tension=1e-4)
+    text = ref.gerris_file(s)
+    assert "VariableTracerVOFHeight T" in text and "VariableCurvature K T" in text
+    assert "SourceTension T 0.0018" in text
 
 
 @pytest.mark.parametrize("kw, what", [({"ratio": 2.0}, "--ratio"), ({"level": 3}, "--level"),
                                       ({"light": "moving"}, "--light"),
-                                      ({"box": 1.0}, "--box")])
+                                      ({"box": 1.0}, "--box"),
+                                      ({"tension": -1e-4}, "--tension")])
 def test_bad_settings_are_refused_by_name(kw, what):
     args = dict(level=8)
     args.update(kw)
