@@ -21,6 +21,7 @@ Example:
 """
 import argparse
 import datetime
+import glob
 import math
 import os
 import re
@@ -54,6 +55,11 @@ FIG4 = [("input file: standard gradient, shifting", []),
                                              "numerics.binned_sums=.false."]),
         ("paper's: standard gradient, tensile control",
          ["numerics.shifting=.false.", "numerics.tensile=.true."])]
+# The squares against the reference (issue 35): each case at SQUARE_STUDIES'
+# resolutions with three schemes, FIG4's; the input file's runs are the
+# studies' own, the others go to runs/<case><tag>_<N>
+SQUARE_SCHEMES = [("input file", [], ""), ("higher-order gradient", FIG4[1][1], "_ho"),
+                  ("paper's: standard gradient, tensile control", FIG4[2][1], "_paper")]
 ELLIPSOID_N = [10000, 40000]
 # Square patches: run when input/<case>.nml exists, at three resolutions
 # (100^2, 200^2 and 300^2 particles)
@@ -339,6 +345,178 @@ def analyse_square(jobs, doc, case):
                             f"{peak['f_peak'] / r.case.rate:.4g}" if peak else "-",
                             f"{peak['f_peak'] / r.case.f_acoustic:.3f}" if peak else "-"))
     return out
+
+
+def reference_levels(root, case):
+    """The analysed reference runs of a case under root (postproc/reference's
+    layout root/CASE/level_N), coarsest first."""
+    from . import reference
+    dirs = glob.glob(os.path.join(root, case, "level_*"))
+    refs = [reference.Reference(d) for d in dirs
+            if os.path.isfile(os.path.join(d, "summary.json"))]
+    return sorted(refs, key=lambda r: r.setup.level)
+
+
+def against_reference(case, scheme_jobs, root, doc):
+    """Each scheme's runs of a square against the finest reference
+    (reference.compare), the reference's own uncertainty (its two finest
+    levels against each other), the observed orders of the differences, and
+    the figure of p and the interfaces.  None without a reference."""
+    import numpy as np
+    from . import reference
+    refs = reference_levels(root, case)
+    if not refs:
+        return None
+    fine = refs[-1]
+    out = {"ref": fine, "schemes": []}
+    if len(refs) > 1:
+        a, b = refs[-2], refs[-1]
+        end = min(a.pressure["t"][-1], b.pressure["t"][-1])
+        sel = [r.pressure for r in (a, b)]
+        t = sel[1]["t"]
+        keep = (t >= reference.TRIM) & (t <= end - reference.TRIM)
+        d = sel[1]["p"][keep] - np.interp(t[keep], sel[0]["t"], sel[0]["p"])
+        d = d[np.isfinite(d)]
+        p0 = abs(reference.SERIES_P0[case])
+        out["uncertainty"] = {"levels": (a.setup.level, b.setup.level),
+                              "p_mean": float(np.mean(np.abs(d)) / p0) if len(d) else None,
+                              "p_bias": float(np.mean(d) / p0) if len(d) else None,
+                              "cavity": (a.cavity_time(), b.cavity_time())}
+        out["uncertainty"]["interface"] = {
+            f"{tk:g}": reference.curve_distance(b.interface(tk), a.interface(tk))[0]
+            for tk in reference.INTERFACE_TIMES[case] if tk <= b.setup.t_end * (1 + 1e-12)}
+    for (label, _, _), jobs in zip(SQUARE_SCHEMES, scheme_jobs):
+        rows = []
+        for j in jobs:
+            if not j.ok:
+                continue
+            run = sp.Run(j.run_dir)
+            rows.append((run, reference.compare(j.run_dir, fine.path, echo=quiet)))
+        out["schemes"].append((label, rows))
+    first = [r for r, _ in out["schemes"][0][1]]
+    if first:
+        png = os.path.join(doc, f"validation_{case}_reference.png")
+        reference.figure([r.path for r in first], [x.path for x in refs[-2:]], png,
+                         labels=[f"N = {r.n_particles:,}" for r in first])
+        out["fig"] = png
+    return out
+
+
+def reference_section(w, case, ref, doc):
+    """The report's part on a square against its reference (issue 35)."""
+    import numpy as np
+    from . import reference
+    if ref is None:
+        w(f"No reference found for {case}: `make reference` computes it (doc/reference.md); "
+          "then `make validate VALIDATE_ARGS=--reuse` compares with it.")
+        w("")
+        return
+    fine = ref["ref"]
+    tl = "t omega" if case == "square_rotation" else "t V0/L"
+    cells = 1 / fine.setup.dx
+    w(f"#### Against the Gerris reference ({cells:g} cells per L, `{fine.path}`)")
+    w("")
+    u = ref.get("uncertainty")
+    if u:
+        la, lb = u["levels"]
+        w(f"The reference's own uncertainty, its levels {la} and {lb} against each other: "
+          f"filtered probe pressure {sig(u['p_mean'])} % of |p(0)| on average over "
+          f"[{reference.TRIM:g}, end - {reference.TRIM:g}] (mean difference {100 * u['p_bias']:+.3f} %), interfaces "
+          + ", ".join(f"{d:.4f} L at {tk}" for tk, d in u["interface"].items())
+          + (f", first cavity {u['cavity'][0]} and {u['cavity'][1]}" if u["cavity"][1] else "")
+          + ". A difference from the reference below these is within its uncertainty.")
+        w("")
+    times = list(next((c["interface"] for _, rows in ref["schemes"] for _, c in rows), {}))
+    head = ("| scheme | N | p filtered: mean | largest | mean difference | "
+            + " | ".join(f"surface at {tk}: mean (dx) | tips" for tk in times)
+            + " | KE change difference |" + (" first cavity |" if case == "square_vortical"
+                                              else ""))
+    w("Filtered probe pressure minus the reference's over the interval given (in % of "
+      "|p(0)|); the free surface's mean distance from the reference's interface in L (and in "
+      "particle spacings) and the arm tips' radius minus the reference's, in L; the mean "
+      "difference of the kinetic energy's relative change; the first cavity:")
+    w("")
+    w(head)
+    w("|" + "---|" * (head.count("|") - 1))
+    orders = []
+    window = None
+    for label, rows in ref["schemes"]:
+        ns, pm, sm = [], [], []
+        for run, c in rows:
+            dx = run.dx / run.case.length
+            cells_ = []
+            for tk in times:
+                if tk in c["interface"]:
+                    dm = c["interface"][tk][0]
+                    cells_.append(f"{dm:.4f} ({dm / dx:.2f}) | {c['tip'][tk]:+.4f}")
+                else:
+                    cells_.append("- | -")
+            cav = ""
+            if case == "square_vortical":
+                fc_, fr = c.get("first_cavity"), c.get("first_cavity_reference")
+                cav = (f" {fc_:.4f} ({100 * (fc_ / fr - 1):+.1f} %) |" if fc_ and fr
+                       else f" {fc_} |")
+            window = c.get("p_trim", (0, c["p_interval_end"]))
+            w(f"| {label} | {run.n_particles:,} | {sig(c.get('p_trim_mean', np.nan))} "
+              f"| {sig(c.get('p_trim_max', np.nan))} | "
+              f"{100 * c.get('p_trim_bias', np.nan):+.3f} | " + " | ".join(cells_)
+              + f" | {sig(c['ke_change_difference_mean'])} |" + cav)
+            ns.append(run.n_particles)
+            pm.append(c.get("p_trim_mean", np.nan))
+            sm.append(c["interface"][times[0]][0] if times and times[0] in c["interface"]
+                      else np.nan)
+        if len(ns) >= 2:
+            h = [1 / math.sqrt(n) for n in ns]
+            orders.append((label, sp.observed_orders(h, pm), sp.observed_orders(h, sm)))
+    w("")
+    if window:
+        w(f"Pressure interval: {tl} in [{window[0]:g}, {window[1]:.3g}] (while both probes are "
+          "in the fluid, less the filter's ends).")
+        w("")
+    if orders:
+        w(f"Observed orders of the differences in dx (between resolutions; least squares): "
+          f"probe pressure, surface at {tl} = {times[0] if times else '-'}:")
+        w("")
+        for label, (pp, pl), (sp_, sl) in orders:
+            w(f"- {label}: p {', '.join(f'{v:.2f}' for v in pp)} ({pl:.2f}); surface "
+              f"{', '.join(f'{v:.2f}' for v in sp_)} ({sl:.2f})")
+        w("")
+    if "fig" in ref:
+        w(f"![{case} against the reference]({rel(ref['fig'], doc)})")
+        w("")
+
+
+def reference_claims(ref):
+    """The paper's two claims on Figure 4 as rows (claim, paper, ours,
+    verdict), from the finest run of each scheme against the reference."""
+    import numpy as np
+    if ref is None or len(ref["schemes"]) < 3 or not all(rows for _, rows in ref["schemes"]):
+        return []
+    fin = {label: rows[-1][1] for label, rows in ref["schemes"]}
+    labels = [label for label, _ in ref["schemes"]]
+    std, ho = fin[labels[2]], fin[labels[1]]
+    u = (ref.get("uncertainty") or {}).get("p_mean")
+    n = ref["schemes"][2][1][-1][0].n_particles
+    band = f"the reference's own uncertainty {100 * u:.2f} %" if u is not None else \
+        "no second reference level for its uncertainty"
+    bias = std.get("p_trim_bias", np.nan)
+    if u is not None and abs(bias) <= u:
+        v1 = "not decided: the difference is within the reference's uncertainty"
+    else:
+        v1 = "holds" if bias < 0 else "does not hold: ours is higher"
+    rows = [("the standard SPH's p_A: \"its mean evolution is slightly lower\" than the "
+             "incompressible one", "Figure 4, against the BEM",
+             f"mean filtered p_A minus the reference's {100 * bias:+.2f} % of |p_A(0)| "
+             f"(N = {n:,}; {band})", v1)]
+    a, b = ho.get("p_trim_mean", np.nan), std.get("p_trim_mean", np.nan)
+    if u is not None and abs(a - b) <= u:
+        v2 = "not decided: the schemes differ by less than the reference's uncertainty"
+    else:
+        v2 = "holds" if a < b else "does not hold: the standard one is closer"
+    rows.append(("the higher-order SPH's p_A \"shows to be much closer\" to the incompressible "
+                 "one", "Figure 4", f"mean |difference| {100 * a:.2f} % (higher-order) against "
+                 f"{100 * b:.2f} % (standard, tensile control); {band}", v2))
+    return rows
 
 
 def square_diagnostics(run, job):
@@ -774,6 +952,17 @@ def write_report(path, doc, circle, ell, squares, args, total_wall, jobs, load):
             w(f"| {n:,} | {d['ke']} | {d['am']} | {d['sym']} | {d['sym_max']} | "
               f"{d['pieces']} | {d['holes']} | {d['t_hole']} | {d['t_cavity']} | {ratio} |")
         w("")
+        reference_section(w, case, sq.get("reference"), doc)
+        claims = reference_claims(sq.get("reference"))
+        if claims:
+            w("Beside the paper's claims on Figure 4 (the finest runs; verdicts against the "
+              "reference's own uncertainty):")
+            w("")
+            w("| claim of the paper | paper | ours | verdict |")
+            w("|---|---|---|---|")
+            for row in claims:
+                w("| " + " | ".join(row) + " |")
+            w("")
         sc = self_convergence(case, sq["runs"], sq["jobs"])
         if sc:
             w(f"Self-convergence, {sc}.")
@@ -857,6 +1046,10 @@ def command(argv, prog="postproc/validate"):
     ap.add_argument("--fifth", action="store_true",
                     help="add the convergent recipe's fifth level, 321,792 particles "
                          "(about 9 hours on two cores)")
+    ap.add_argument("--reference", default=os.path.join(ROOT, "runs", "reference"),
+                    help="where `make reference` put the squares' Gerris references "
+                         "(default runs/reference): the finest level of each case is the "
+                         "reference, the next finer its uncertainty")
     ap.add_argument("--reuse", action="store_true",
                     help="reuse finished runs found in --runs, continue the runs stopped "
                          "with a checkpoint, run only the missing ones")
@@ -901,12 +1094,18 @@ def command(argv, prog="postproc/validate"):
         if case in args.cases and os.path.exists(os.path.join(ROOT, "input", f"{case}.nml")):
             # their own t_end and output times from the input file
             squares[case] = jobs_for(case, QUICK[case] if args.quick else ns)
+    # the other schemes of each square at the same resolutions; Figure 4's
+    # three runs are the rotating square's at n4
+    schemes = {case: [js] + [jobs_for(case, [j.n for j in js], (), extra, tag)
+                             for _, extra, tag in SQUARE_SCHEMES[1:]]
+               for case, js in squares.items()}
     fig4 = []
     if "square_rotation" in squares:
         n4 = QUICK["fig4"] if args.quick else FIG4_N
-        fig4 = [j for k, (_, extra) in enumerate(FIG4)
-                for j in jobs_for("square_rotation", [n4], (), extra, f"_fig4_{k}")]
-    all_jobs = circle + circle_std + circle_conv + ell + [j for js in squares.values() for j in js] + fig4
+        fig4 = [j for js in schemes["square_rotation"] for j in js if j.n == n4]
+    all_jobs = circle + circle_std + circle_conv + ell + [j for sj in schemes.values()
+                                                           for js in sj[1:] for j in js] + \
+        [j for js in squares.values() for j in js]
     print(f"validate: {len(all_jobs)} runs into {args.runs}, {args.jobs} at a time")
     if args.wall_limit is not None and args.wall_limit <= 0:
         raise sp.PostprocError(f"--wall-limit {args.wall_limit:g}: allowed > 0 seconds")
@@ -937,6 +1136,9 @@ def command(argv, prog="postproc/validate"):
                                                  frac)
     e_out = analyse_stretching(ell, args.doc, "ellipsoid3d", frac) if ell else None
     s_out = {case: analyse_square(js, args.doc, case) for case, js in squares.items()}
+    for case, sj in schemes.items():
+        if s_out.get(case):
+            s_out[case]["reference"] = against_reference(case, sj, args.reference, args.doc)
     if fig4 and s_out.get("square_rotation") and all(j.ok for j in fig4):
         png = os.path.join(args.doc, "validation_square_rotation_fig4.png")
         plots.draw("pressure", [j.run_dir for j in fig4], png, echo=quiet,

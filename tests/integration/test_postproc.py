@@ -640,3 +640,40 @@ def test_validate_counts_every_piece_of_a_continued_run():
     j = Job("c", 10, "x.nml", [], "/nonexistent", 1.0)
     assert j.parse(log.split("\n", 5)[5])
     assert (j.steps, j.wall) == (79, 150.0)
+
+
+def test_validate_compares_the_squares_schemes_with_a_reference(scratch):
+    # the rotating square's three schemes at the quick resolutions against a
+    # made-up reference of two levels (p_A = its series value plus a slope,
+    # circles for interfaces): the report's numbers are reference.compare's,
+    # the reference's uncertainty the two levels' known difference
+    sys.path.insert(0, str(ROOT / "tests" / "integration"))
+    from test_reference import fake_reference
+    from sphpost import reference as ref
+    tmp = scratch("validate_squares")
+    th = np.linspace(0, 2 * np.pi, 201)
+    for level, off in ((8, 0.0), (9, 0.002)):
+        s = ref.Setup("square_rotation", 1.0, 1.0, 1.0, 4.0, level=level)
+        d = tmp / "ref" / "square_rotation" / f"level_{level}"
+        d.parent.mkdir(parents=True, exist_ok=True)
+        fake_reference(d, s, lambda t, o=off: -0.147343 + 0.03 * t + o * 0.147343,
+                       lambda t: (1 / 12) * (1 - 0.01 * t))
+        for tk in (1, 2, 3, 4):
+            ref.write_csv(str(d / f"interface_{tk}.csv"), ("piece", "x", "y"),
+                          zip(np.zeros(201, int), (0.5 + 0.1 * tk) * np.cos(th),
+                              (0.5 + 0.1 * tk) * np.sin(th)))
+    script("validate", "--quick", "--cases", "square_rotation", "--runs", tmp / "runs",
+           "--doc", tmp / "doc", "--sph", SPH, "--reference", tmp / "ref")
+    md = (tmp / "doc" / "validation.md").read_text()
+    assert "Against the Gerris reference (64 cells per L" in md
+    # the levels differ by 0.2 % of |p(0)| everywhere
+    assert "its levels 8 and 9 against each other: filtered probe pressure 0.2 %" in md
+    assert "mean difference +0.200 %" in md
+    c = ref.compare(str(tmp / "runs" / "square_rotation_paper_2500"),
+                    str(tmp / "ref" / "square_rotation" / "level_9"), echo=lambda m: None)
+    row = next(line for line in md.splitlines()
+               if line.startswith("| paper's: standard gradient, tensile control | 2,500 |"))
+    assert f"| {100 * c['p_trim_bias']:+.3f} |" in row, row
+    assert f"{c['interface']['1'][0]:.4f}" in row and f"{c['tip']['4']:+.4f}" in row
+    assert md.count("| the standard SPH's p_A") == 1 and "shows to be much closer" in md
+    assert (tmp / "doc" / "validation_square_rotation_reference.png").exists()

@@ -118,6 +118,12 @@ def test_cavities_are_enclosed_light_regions():
     assert ref.cavities(g) == []
 
 
+def test_the_tip_radius_is_the_farthest_point():
+    arms = [np.array([[0.0, 0.0], [1.5, 0.2]]), circle(0.7, centre=(0.1, 0.0))]
+    assert math.isclose(ref.tip_radius(arms), math.hypot(1.5, 0.2))
+    assert math.isclose(ref.tip_radius([circle(0.6)]), 0.6)
+
+
 def test_curve_distance_of_two_circles():
     mean, worst = ref.curve_distance([circle(0.5)], [circle(0.51)], ds=1e-4)
     assert abs(mean - 0.01) < 1e-5 and abs(worst - 0.01) < 1e-5
@@ -185,6 +191,12 @@ def test_a_run_against_a_reference_gives_the_differences_put_in(tmp_path):
     # the ends: measured 1.2e-5 of |p(0)| over [0, 1]
     assert abs(out["p_filtered_mean"] - 0.01) < 1e-4
     assert abs(out["p_filtered_mean_to"]["1"] - 0.01) < 1e-4
+    # away from the ends the filter keeps the line: the offset and its sign
+    assert out["p_trim"] == (0.1, 3.9)
+    assert abs(out["p_trim_mean"] - 0.01) < 1e-4 and abs(out["p_trim_bias"] - 0.01) < 1e-4
+    # the kink's ripple still reaches t omega = 0.1 and 3.9: measured 0.28 %
+    # of |p(0)| at a slope of 0.2 |p(0)| omega (p_A's own is below 0.1)
+    assert abs(out["p_trim_max"] - 0.01) < 0.0035
     assert abs(out["ke_change_difference_mean"] - 0.02 * 2.0) < 1e-9   # mean of 0.02 t
     # the same through postproc/errors' hook; a run of another flow is refused
     from sphpost import errors
