@@ -47,14 +47,15 @@ import time
 import numpy as np
 
 from . import core as sp
-from . import foreign
+from . import exact, foreign
 
 PROG = "reference"
 CASES = ("square_rotation", "square_vortical")
 
 # The initial probe pressures by the sine series (doc/theory.md X3, X4), in
-# rho omega^2 L^2 and rho V0^2.
-SERIES_P0 = {"square_rotation": -0.147343, "square_vortical": -0.229452}
+# rho omega^2 L^2 and rho V0^2: -0.147343 at A, -0.229452 at (L/4, L/4).
+SERIES_P0 = {"square_rotation": float(exact.square_rotation_pressure(0.0, 0.0)[0]),
+             "square_vortical": float(exact.square_vortical_pressure(0.25, 0.25)[0])}
 # The times of the interfaces written, in the case's time unit.
 INTERFACE_TIMES = {"square_rotation": (1.0, 2.0, 3.0, 4.0),
                    "square_vortical": (0.4, 1.0, 1.2, 1.5)}

@@ -183,7 +183,7 @@ def test_a_run_against_a_reference_gives_the_differences_put_in(tmp_path):
     c = sp.case_info({"run": {"case": "square_rotation"}, "physics": {"c0": 7.0}})
     t = np.linspace(0, 4, 2001)
     # a constant offset of 1 % of |p(0)| and an energy falling 0.02 t faster
-    out, end = ref.series_against(c, r, t, p_ref(t) + 0.01 * 0.147343, t,
+    out, end = ref.series_against(c, r, t, p_ref(t) + 0.01 * abs(ref.SERIES_P0["square_rotation"]), t,
                                   ke_ref(t) - (1 / 12) * 0.02 * t)
     assert end == 4.0
     assert abs(out["p_raw_mean"] - 0.01) < 1e-9
