@@ -612,6 +612,21 @@ class Reference:
         return self.summary.get("first_cavity")
 
 
+def converged_until(a, b, bar=0.003):
+    """The longest interval [0, w] over which the probe pressures of two
+    reference levels differ by at most `bar` of |p(0)| on average from
+    TRIM on (the issue's bar for the two finest levels): w, or None."""
+    t = b.pressure["t"]
+    d = np.abs(b.pressure["p"] - np.interp(t, a.pressure["t"], a.pressure["p"]))
+    keep = (t >= TRIM - 1e-9) & np.isfinite(d)
+    t, d = t[keep], d[keep] / abs(SERIES_P0[b.setup.case])
+    if len(t) < 2:
+        return None
+    mean = np.cumsum(d) / np.arange(1, len(d) + 1)
+    ok = np.nonzero(mean <= bar)[0]
+    return float(t[ok[-1]]) if len(ok) else None
+
+
 def pressure_difference(a, b, until=None):
     """Mean and largest |p_a - p_b| over their common tabulated times (up to
     `until`), relative to |p(0)| of the series."""
@@ -727,13 +742,16 @@ def check_case(c, s):
             raise sp.PostprocError(f"the run's {what} is {mine:g}, the reference's {theirs:g}")
 
 
-def series_against(c, ref, t, p, t_ke, ke, fc=None, transition=sp.DEFAULT_TRANSITION):
+def series_against(c, ref, t, p, t_ke, ke, fc=None, transition=sp.DEFAULT_TRANSITION,
+                   until=None):
     """A run's probe pressure p(t) and kinetic energy ke(t_ke) (in the run's
     units; c its CaseInfo) against a Reference: the probe pressure's mean
     |difference| raw and low-pass filtered (over the whole common interval
     where both probes are in the fluid, and over WINDOWS), in |p(0)| of the
     series, and the mean |difference| of the kinetic energy's relative
-    change.  Returns the numbers and the interval's end (in the case's time)."""
+    change; with `until`, the filtered pressure over [TRIM, until] as well
+    (p_until_*: where the reference has converged).  Returns the numbers and
+    the interval's end (in the case's time)."""
     s = ref.setup
     check_case(c, s)
     tu, pu = s.time_unit, s.p_unit
@@ -769,6 +787,14 @@ def series_against(c, ref, t, p, t_ke, ke, fc=None, transition=sp.DEFAULT_TRANSI
         out.update(p_trim=(TRIM, float(end - TRIM)), p_trim_mean=float(np.mean(np.abs(d)) / p0),
                    p_trim_max=float(np.max(np.abs(d)) / p0),
                    p_trim_bias=float(np.mean(d) / p0))
+    if until is not None:
+        part = (tf >= TRIM - 1e-9) & (tf <= min(until, end - TRIM) + 1e-9)
+        if part.sum() >= 2:
+            d = (pf - pr)[part]
+            out.update(p_until=(TRIM, float(min(until, end - TRIM))),
+                       p_until_mean=float(np.mean(np.abs(d)) / p0),
+                       p_until_max=float(np.max(np.abs(d)) / p0),
+                       p_until_bias=float(np.mean(d) / p0))
     tk = np.asarray(t_ke, dtype=float) / tu
     kel = tk <= min(tk[-1], ref.integrals["t"][-1]) + 1e-9
     ke = np.asarray(ke, dtype=float)[kel]
@@ -778,7 +804,8 @@ def series_against(c, ref, t, p, t_ke, ke, fc=None, transition=sp.DEFAULT_TRANSI
     return out, end
 
 
-def compare(run_dir, ref_dir, echo=print, fc=None, transition=sp.DEFAULT_TRANSITION):
+def compare(run_dir, ref_dir, echo=print, fc=None, transition=sp.DEFAULT_TRANSITION,
+            until=None):
     """An sph run of a square patch against a reference: the probe pressure
     raw and filtered, the kinetic energy's change, the free surface at the
     interface times and the first cavity.  Returns the numbers."""
@@ -789,7 +816,7 @@ def compare(run_dir, ref_dir, echo=print, fc=None, transition=sp.DEFAULT_TRANSIT
     tu = s.time_unit
     t = run.time / tu
     out, end = series_against(c, ref, run.time, run.column(probe_column(run, s.probe)),
-                              run.time, run.column("kinetic_energy"), fc, transition)
+                              run.time, run.column("kinetic_energy"), fc, transition, until)
     n = run.n_particles
     dx = s.side / math.sqrt(n)
     h = float(run.nml.get("particles", {}).get("h_over_dx", 2.0)) * dx
