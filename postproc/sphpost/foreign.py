@@ -606,25 +606,32 @@ def fitted_semi_axes(x, m):
     return np.sqrt(var * (4.0 if x.shape[1] == 2 else 5.0))
 
 
-def free_surface_outline(x, volume, dx, bounds=None):
-    """The free surface of 2D particles as closed polylines: the particles'
-    volumes binned on a grid of dx/4, smoothed by a Gaussian of width dx
-    (a volume fraction, 1 inside the fluid, 0 outside), and its 1/2 level
-    traced by contourpy (matplotlib's contouring).  Returns the list of
-    (k, 2) arrays, outer boundaries and holes alike."""
-    from scipy.ndimage import gaussian_filter
+def free_surface_outline(x, volume, dx, h=None, level=0.5):
+    """The free surface of 2D particles as closed polylines: the `level`
+    contour of the colour function C(x) = sum_j V_j W(|x - x_j|, h)
+    (Wendland C2, support 2 h; default h = 2 dx), which is 1 inside a
+    uniform arrangement and falls to 1/2 at its surface.  Sampled on a grid
+    of dx / 2, traced by contourpy (matplotlib's contouring).  Returns the
+    list of (k, 2) arrays, outer boundaries and holes alike."""
     import contourpy
-    cell = dx / 4
-    lo = x.min(axis=0) - 4 * dx
-    hi = x.max(axis=0) + 4 * dx
-    nx, ny = (int(math.ceil(v)) for v in (hi - lo) / cell)
-    frac, ex, ey = np.histogram2d(x[:, 0], x[:, 1], bins=(nx, ny),
-                                  range=((lo[0], lo[0] + nx * cell), (lo[1], lo[1] + ny * cell)),
-                                  weights=volume / cell**2)
-    frac = gaussian_filter(frac, sigma=4.0, mode="constant")
-    xc, yc = 0.5 * (ex[1:] + ex[:-1]), 0.5 * (ey[1:] + ey[:-1])
-    gen = contourpy.contour_generator(xc, yc, frac.T, line_type="Separate")
-    return [ln for ln in gen.lines(0.5) if len(ln) > 2]
+    h = 2.0 * dx if h is None else h
+    x = np.asarray(x)[:, :2]
+    g = dx / 2
+    lo = x.min(axis=0) - 2.5 * h
+    n = np.ceil((x.max(axis=0) + 2.5 * h - lo) / g).astype(int) + 1
+    grid = np.zeros((n[1], n[0]))
+    base = np.floor((x - lo) / g).astype(int)
+    reach = int(math.ceil(2 * h / g)) + 1
+    sigma = 7.0 / (4.0 * math.pi * h**2)
+    for di in range(-reach, reach + 1):
+        for dj in range(-reach, reach + 1):
+            i, j = base[:, 0] + di, base[:, 1] + dj
+            r = np.hypot(lo[0] + i * g - x[:, 0], lo[1] + j * g - x[:, 1]) / h
+            w = np.where(r < 2, sigma * (1 - r / 2) ** 4 * (1 + 2 * r), 0.0)
+            np.add.at(grid, (j, i), volume * w)
+    gen = contourpy.contour_generator(lo[0] + g * np.arange(n[0]), lo[1] + g * np.arange(n[1]),
+                                      grid, line_type="Separate")
+    return [np.asarray(ln) for ln in gen.lines(level) if len(ln) > 1]
 
 
 def outline_measures(lines):

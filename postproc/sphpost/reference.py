@@ -700,25 +700,10 @@ def study(dirs, echo=print):
 
 def colour_contour(snap, h, dx, level=0.5):
     """The free surface of a particle snapshot: the `level` contour of the
-    colour function C(x) = sum_j V_j W(|x - x_j|, h) (Wendland C2, support
-    2 h, V_j = m_j / rho_j), which is 1 inside and falls to 1/2 at the surface
-    of a uniform arrangement.  Sampled at dx / 2."""
-    x = snap["position"][:, :2]
-    vol = snap["mass"] / snap["density"]
-    g = dx / 2
-    lo = x.min(axis=0) - 2.5 * h
-    n = np.ceil((x.max(axis=0) + 2.5 * h - lo) / g).astype(int) + 1
-    grid = np.zeros((n[1], n[0]))
-    base = np.floor((x - lo) / g).astype(int)
-    reach = int(math.ceil(2 * h / g)) + 1
-    sigma = 7.0 / (4.0 * math.pi * h**2)
-    for di in range(-reach, reach + 1):
-        for dj in range(-reach, reach + 1):
-            i, j = base[:, 0] + di, base[:, 1] + dj
-            r = np.hypot(lo[0] + i * g - x[:, 0], lo[1] + j * g - x[:, 1]) / h
-            w = np.where(r < 2, sigma * (1 - r / 2) ** 4 * (1 + 2 * r), 0.0)
-            np.add.at(grid, (j, i), vol * w)
-    return contour(lo[0], lo[1], g, grid, level)
+    colour function with smoothing length h, sampled at dx / 2
+    (foreign.free_surface_outline)."""
+    return foreign.free_surface_outline(snap["position"], snap["mass"] / snap["density"], dx,
+                                        h, level)
 
 
 def probe_column(run, pos):
