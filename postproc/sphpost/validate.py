@@ -368,8 +368,10 @@ def against_reference(case, scheme_jobs, root, doc):
     if not refs:
         return None
     fine = refs[-1]
-    out = {"ref": fine, "schemes": []}
+    out = {"ref": fine, "schemes": [], "study": []}
     if len(refs) > 1:
+        # the reference's own resolution study, as postproc/reference study prints it
+        reference.study([r.path for r in refs], echo=out["study"].append)
         a, b = refs[-2], refs[-1]
         end = min(a.pressure["t"][-1], b.pressure["t"][-1])
         sel = [r.pressure for r in (a, b)]
@@ -425,11 +427,17 @@ def reference_section(w, case, ref, doc):
     cells = 1 / fine.setup.dx
     w(f"#### Against the Gerris reference ({cells:g} cells per L, `{fine.path}`)")
     w("")
+    if ref.get("study"):
+        w(f"The reference's resolution study (`postproc/reference study`, doc/reference.md "
+          f"for the choices behind it): {ref['study'][0].lstrip('# ').strip()}.")
+        w("")
+        w("\n".join(ref["study"][1:]).strip("\n"))
+        w("")
     u = ref.get("uncertainty")
     if u:
         la, lb = u["levels"]
         w(f"The reference's own uncertainty, its levels {la} and {lb} against each other: "
-          f"filtered probe pressure {sig(u['p_mean'])} % of |p(0)| on average over "
+          f"probe pressure {sig(u['p_mean'])} % of |p(0)| on average over "
           f"[{reference.TRIM:g}, end - {reference.TRIM:g}] (mean difference {100 * u['p_bias']:+.3f} %), interfaces "
           + ", ".join(f"{d:.4f} L at {tk}" for tk, d in u["interface"].items())
           + (f", first cavity {u['cavity'][0]} and {u['cavity'][1]}" if u["cavity"][1] else "")

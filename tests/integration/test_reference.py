@@ -166,7 +166,10 @@ def fake_reference(path, s, p, ke):
     """A reference directory holding the given tabulated p(t) and KE(t)."""
     path.mkdir()
     (path / "sim.gfs").write_text(ref.gerris_file(s))
-    (path / "summary.json").write_text('{"first_cavity": null}')
+    (path / "summary.json").write_text(
+        f'{{"first_cavity": null, "cells_per_side": {1 / s.dx}, "steps": 100, '
+        '"wall_time_s": 1.0, "p_probe_initial_error": 0.0, "area_drift_max": 0.0, '
+        '"kinetic_energy_change_end": 0.0}')
     t = np.round(np.arange(0, s.t_end + 0.005, 0.01), 10)
     ref.write_csv(str(path / "pressure.csv"), ("t", "p", "p_far"),
                   zip(t, p(t), p(t)))
