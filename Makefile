@@ -57,7 +57,7 @@ LIB_OBJ   := $(sort $(addprefix $(BUILD)/,$(addsuffix .o,$(basename $(notdir $(L
 vpath %.f90 $(SRC_DIRS) tests
 vpath %.F90 $(SRC_DIRS)
 
-.PHONY: all sph debug asan test unit bench bench-pairloop decomp-study validate validate-long reference input-doc clean
+.PHONY: validate-squares all sph debug asan test unit bench bench-pairloop decomp-study validate validate-long reference input-doc clean
 all: sph
 
 # copy then rename: replaces ./sph atomically, even while it is running
@@ -208,6 +208,14 @@ validate: sph
 # VALIDATE_ARGS="--wall-limit 10000" (or Ctrl-C), repeated until it reports.
 validate-long: sph
 	$(PYTHON) postproc/validate --reuse --fifth $(VALIDATE_ARGS)
+
+# The square patches alone against the Gerris reference (issue 35): each at
+# 10k, 40k and 90k particles with three schemes, compared with the finest
+# level of `make reference`; doc/validation_squares.md.  About two hours on
+# two cores; --reuse keeps finished runs.
+validate-squares: sph
+	$(PYTHON) postproc/validate --reuse --cases square_rotation square_vortical \
+	  --report validation_squares.md --np 1 $(VALIDATE_ARGS)
 
 # The square patches' reference by Gerris (postproc/reference, doc/reference.md):
 # both cases at REFERENCE_LEVELS (Gerris's finest levels in a box of 8 L:
