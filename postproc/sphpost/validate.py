@@ -419,7 +419,7 @@ def reference_section(w, case, ref, doc):
     from . import reference
     if ref is None:
         w(f"No reference found for {case}: `make reference` computes it (doc/reference.md); "
-          "then `make validate VALIDATE_ARGS=--reuse` compares with it.")
+          "then `make validate-squares` compares with it.")
         w("")
         return
     fine = ref["ref"]
