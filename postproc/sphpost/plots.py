@@ -362,16 +362,17 @@ def save(args, echo=print):
 
 
 def draw(what, run_dirs, output=None, dpi=130, fopts=None, labels=None, reference=None,
-         no_raw=False, field=None, times=None, echo=print):
+         no_raw=False, field=None, times=None, echo=print, ref=None):
     """The figure `what` (circle, ellipsoid, pressure, square) of the run
     directories run_dirs (one, except for pressure), as the subcommand
     draws it with the same options; fopts: sphpost.filter_options (default
-    the command line's).  Returns the path written."""
+    the command line's); ref: a reference run directory (square).  Returns
+    the path written."""
     if what != "pressure" and len(run_dirs) != 1:
         raise sp.PostprocError(f"'{what}' plots one run, got {len(run_dirs)}")
     args = argparse.Namespace(what=what, output=output, dpi=dpi, labels=labels,
                               reference=reference, no_raw=no_raw, field=field, times=times,
-                              **vars(fopts or sp.filter_options()))
+                              ref=ref, **vars(fopts or sp.filter_options()))
     if what == "pressure":
         args.run_dirs = list(run_dirs)
     else:

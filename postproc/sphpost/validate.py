@@ -410,6 +410,19 @@ def against_reference(case, scheme_jobs, root, doc):
         reference.figure([r.path for r in first], [x.path for x in refs[-2:]], png,
                          labels=[f"N = {r.n_particles:,}" for r in first])
         out["fig"] = png
+        # the paper's Figure 3 or 5 with the reference's interface dashed
+        png = os.path.join(doc, f"validation_{case}_reference_particles.png")
+        times = [0.0, 4.0] if case == "square_rotation" else [0.0, 0.4, 1.5]
+        plots.draw("square", [first[-1].path], png, echo=quiet, ref=fine.path, times=times)
+        out["fig_particles"] = png
+    finest = [rows[-1][0] for _, rows in out["schemes"] if rows]
+    if case == "square_rotation" and len(finest) == len(SQUARE_SCHEMES):
+        # the paper's Figure 4 with the reference: the schemes' finest runs
+        png = os.path.join(doc, f"validation_{case}_fig4_reference.png")
+        reference.figure([r.path for r in finest], [x.path for x in refs[-2:]], png,
+                         labels=[f"{lab}, N = {r.n_particles:,}"
+                                 for (lab, _, _), r in zip(SQUARE_SCHEMES, finest)])
+        out["fig4"] = png
     return out
 
 
@@ -511,6 +524,18 @@ def reference_section(w, case, ref, doc):
         w("")
     if "fig" in ref:
         w(f"![{case} against the reference]({rel(ref['fig'], doc)})")
+        w("")
+    if "fig_particles" in ref:
+        w(f"The paper's Figure {3 if case == 'square_rotation' else 5}: the finest run of the "
+          "input file's scheme, the reference's interface dashed.")
+        w("")
+        w(f"![{case}: particles and the reference's interface]"
+          f"({rel(ref['fig_particles'], doc)})")
+        w("")
+    if "fig4" in ref:
+        w("The paper's Figure 4 with the reference: each scheme's finest run.")
+        w("")
+        w(f"![Figure 4 with the reference]({rel(ref['fig4'], doc)})")
         w("")
 
 
