@@ -256,3 +256,10 @@ def test_figure_3_of_a_foreign_run_with_the_reference_interface(tmp_path):
         pics[name] = matplotlib.image.imread(png)
     assert np.array_equal(pics["ours"], pics["plain"])
     assert not np.array_equal(pics["ours"], pics["bare"])
+    # a reference that stopped at t omega = 0.5 has no interface at 1: the
+    # comparison keeps to what it has
+    short = ref.Setup("square_rotation", 1.0, 1.0, 1.0, 0.5, level=8)
+    fake_reference(tmp_path / "short", short, lambda t: -0.147343 + 0 * t,
+                   lambda t: 1 / 12 + 0 * t)
+    c = ref.compare(str(tmp_path / "run"), str(tmp_path / "short"), echo=lambda m: None)
+    assert c["interface"] == {} and c["p_interval_end"] == 0.5
