@@ -613,7 +613,6 @@ def free_surface_outline(x, volume, dx, h=None, level=0.5):
     uniform arrangement and falls to 1/2 at its surface.  Sampled on a grid
     of dx / 2, traced by contourpy (matplotlib's contouring).  Returns the
     list of (k, 2) arrays, outer boundaries and holes alike."""
-    import contourpy
     h = 2.0 * dx if h is None else h
     x = np.asarray(x)[:, :2]
     g = dx / 2
@@ -629,9 +628,16 @@ def free_surface_outline(x, volume, dx, h=None, level=0.5):
             r = np.hypot(lo[0] + i * g - x[:, 0], lo[1] + j * g - x[:, 1]) / h
             w = np.where(r < 2, sigma * (1 - r / 2) ** 4 * (1 + 2 * r), 0.0)
             np.add.at(grid, (j, i), volume * w)
-    gen = contourpy.contour_generator(lo[0] + g * np.arange(n[0]), lo[1] + g * np.arange(n[1]),
-                                      grid, line_type="Separate")
-    return [np.asarray(ln) for ln in gen.lines(level) if len(ln) > 1]
+    return contour(lo[0], lo[1], g, grid, level)
+
+
+def contour(x0, y0, dx, grid, level=0.5):
+    """The `level` contour of a grid (grid[j, i] at x0 + i dx, y0 + j dx) as a
+    list of (n, 2) polylines, traced by contourpy."""
+    import contourpy
+    ny, nx = grid.shape
+    gen = contourpy.contour_generator(x0 + dx * np.arange(nx), y0 + dx * np.arange(ny), grid)
+    return [np.asarray(c) for c in gen.lines(level) if len(c) > 1]
 
 
 def outline_measures(lines):

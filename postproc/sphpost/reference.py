@@ -393,13 +393,9 @@ def fraction_grid(cells, s):
     return -half + (lo_i + 0.5) * dx, -half + (lo_j + 0.5) * dx, dx, grid
 
 
-def contour(x0, y0, dx, grid, level=0.5):
-    """The `level` contour of a grid as a list of (n, 2) polylines."""
-    import contourpy
-    ny, nx = grid.shape
-    gen = contourpy.contour_generator(x0 + dx * np.arange(nx), y0 + dx * np.arange(ny), grid)
-    return [np.asarray(c) for c in gen.lines(level) if len(c) > 1]
-
+# the `level` contour of a grid as polylines (the particles' free surface
+# uses the same tracer)
+contour = foreign.contour
 
 def cavities(grid, min_cells=4):
     """The light-phase regions (T < 0.5, 4-connected) that the dense phase
@@ -612,17 +608,26 @@ class Reference:
         return self.summary.get("first_cavity")
 
 
+def level_gap(a, b):
+    """Level b's probe pressure minus level a's, in |p(0)| of the series, at
+    b's tabulated times from TRIM to the end of both runs, where both probes
+    are in the fluid: (t, d)."""
+    t = b.pressure["t"]
+    keep = (t >= TRIM - 1e-9) & (t <= min(t[-1], a.pressure["t"][-1]) + 1e-9)
+    d = (b.pressure["p"][keep] - np.interp(t[keep], a.pressure["t"], a.pressure["p"])) \
+        / abs(SERIES_P0[b.setup.case])
+    ok = np.isfinite(d)
+    return t[keep][ok], d[ok]
+
+
 def converged_until(a, b, bar=0.003):
     """The longest interval [0, w] over which the probe pressures of two
     reference levels differ by at most `bar` of |p(0)| on average from
     TRIM on (the issue's bar for the two finest levels): w, or None."""
-    t = b.pressure["t"]
-    d = np.abs(b.pressure["p"] - np.interp(t, a.pressure["t"], a.pressure["p"]))
-    keep = (t >= TRIM - 1e-9) & np.isfinite(d)
-    t, d = t[keep], d[keep] / abs(SERIES_P0[b.setup.case])
+    t, d = level_gap(a, b)
     if len(t) < 2:
         return None
-    mean = np.cumsum(d) / np.arange(1, len(d) + 1)
+    mean = np.cumsum(np.abs(d)) / np.arange(1, len(d) + 1)
     ok = np.nonzero(mean <= bar)[0]
     return float(t[ok[-1]]) if len(ok) else None
 
@@ -766,20 +771,16 @@ def series_against(c, ref, t, p, t_ke, ke, fc=None, transition=sp.DEFAULT_TRANSI
                                  for w in WINDOWS[s.case] if w < end}
     # away from the filter's ends: [TRIM, end - TRIM], the signed mean too
     # (the paper's "mean evolution slightly lower")
-    mid = (tf >= TRIM - 1e-9) & (tf <= end - TRIM + 1e-9)
-    if mid.sum() >= 2:
-        d = (pf - pr)[mid]
-        out.update(p_trim=(TRIM, float(end - TRIM)), p_trim_mean=float(np.mean(np.abs(d)) / p0),
-                   p_trim_max=float(np.max(np.abs(d)) / p0),
-                   p_trim_bias=float(np.mean(d) / p0))
-    if until is not None:
-        part = (tf >= TRIM - 1e-9) & (tf <= min(until, end - TRIM) + 1e-9)
+    def window(name, hi):
+        part = (tf >= TRIM - 1e-9) & (tf <= hi + 1e-9)
         if part.sum() >= 2:
             d = (pf - pr)[part]
-            out.update(p_until=(TRIM, float(min(until, end - TRIM))),
-                       p_until_mean=float(np.mean(np.abs(d)) / p0),
-                       p_until_max=float(np.max(np.abs(d)) / p0),
-                       p_until_bias=float(np.mean(d) / p0))
+            out.update({name: (TRIM, float(hi)), f"{name}_mean": float(np.mean(np.abs(d)) / p0),
+                        f"{name}_max": float(np.max(np.abs(d)) / p0),
+                        f"{name}_bias": float(np.mean(d) / p0)})
+    window("p_trim", end - TRIM)
+    if until is not None:
+        window("p_until", min(until, end - TRIM))
     tk = np.asarray(t_ke, dtype=float) / tu
     kel = tk <= min(tk[-1], ref.integrals["t"][-1]) + 1e-9
     ke = np.asarray(ke, dtype=float)[kel]

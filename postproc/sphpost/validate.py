@@ -374,24 +374,18 @@ def against_reference(case, scheme_jobs, root, doc):
         reference.study([r.path for r in refs], echo=out["study"].append)
         a, b = refs[-2], refs[-1]
         end = min(a.pressure["t"][-1], b.pressure["t"][-1])
-        sel = [r.pressure for r in (a, b)]
-        t = sel[1]["t"]
-        keep = (t >= reference.TRIM) & (t <= end - reference.TRIM)
-        d = sel[1]["p"][keep] - np.interp(t[keep], sel[0]["t"], sel[0]["p"])
-        d = d[np.isfinite(d)]
-        p0 = abs(reference.SERIES_P0[case])
+        t, gap = reference.level_gap(a, b)
+        d = gap[t <= end - reference.TRIM]
         out["uncertainty"] = {"levels": (a.setup.level, b.setup.level),
-                              "p_mean": float(np.mean(np.abs(d)) / p0) if len(d) else None,
-                              "p_bias": float(np.mean(d) / p0) if len(d) else None,
+                              "p_mean": float(np.mean(np.abs(d))) if len(d) else None,
+                              "p_bias": float(np.mean(d)) if len(d) else None,
                               "cavity": (a.cavity_time(), b.cavity_time())}
         # where the reference has converged to the bar (0.3 % of
         # |p(0)| between its two finest levels): the claims are judged there
         out["until"] = reference.converged_until(a, b)
         if out["until"] is not None:
-            keep = (t >= reference.TRIM) & (t <= out["until"] + 1e-9)
-            dd = sel[1]["p"][keep] - np.interp(t[keep], sel[0]["t"], sel[0]["p"])
-            dd = dd[np.isfinite(dd)]
-            out["uncertainty"]["p_until_mean"] = float(np.mean(np.abs(dd)) / p0)
+            d = gap[t <= out["until"] + 1e-9]
+            out["uncertainty"]["p_until_mean"] = float(np.mean(np.abs(d)))
         out["uncertainty"]["interface"] = {
             f"{tk:g}": reference.curve_distance(b.interface(tk), a.interface(tk))[0]
             for tk in reference.INTERFACE_TIMES[case] if tk <= b.setup.t_end * (1 + 1e-12)}

@@ -44,7 +44,8 @@ module snapshot_io
                   h5kind_to_type, H5_INTEGER_KIND, &
                   h5gget_info_f, h5lget_name_by_idx_f, H5_INDEX_NAME_F, H5_ITER_INC_F
   use fileutil, only: temp_path, rename_file, remove_file, agree_ok, base_name, dir_name, &
-                      file_exists, is_directory, text_buffer_t, text_append, write_file_atomic, free_bytes
+                      file_exists, is_directory, text_buffer_t, text_append, write_file_atomic, &
+                      free_bytes
   implicit none
   private
   public :: snapshot_field_t, snapshot_source_t, snapshot_t, xdmf_index_t
@@ -274,10 +275,8 @@ contains
     end if
     if (.not. ok) then
       ! the disk filled while writing (another process, a larger estimate)
-      if (room_left() < need) then
-        rel = errmsg
-        errmsg = 'no space left on device writing "' // filename // '" (' // rel // ')'
-      end if
+      if (room_left() < need) &
+        errmsg = 'no space left on device writing "' // filename // '" (' // errmsg // ')'
       ! a file whose flush failed stays open in HDF5, which would close it
       ! again at exit, after MPI_Finalize, and crash: end the library now
       ! (its next start prints HDF5's errors again, as does this)
