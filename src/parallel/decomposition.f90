@@ -86,14 +86,15 @@ contains
   end subroutine decomp_refresh
 
   !> The halo slots n+1.. of a per-particle field a(:, ntot) from their owners.
-  subroutine decomp_refresh_field(dc, env, n, a)
+  !> kind: how its mirror images reflect (mirrors, REFLECT_*).
+  subroutine decomp_refresh_field(dc, env, n, a, kind)
     type(decomposition_t), intent(inout) :: dc
     type(parallel_env_t), intent(in) :: env
-    integer, intent(in) :: n
+    integer, intent(in) :: n, kind
     real(wp), intent(inout) :: a(:, :)
     real(wp) :: t0
     t0 = wall_time()
-    call halo_refresh_field(dc%halo, env, n, a)
+    call halo_refresh_field(dc%halo, env, n, a, kind)
     dc%comm_time = dc%comm_time + (wall_time() - t0)
     call count_sent(dc, size(a, 1))
   end subroutine decomp_refresh_field
@@ -107,14 +108,16 @@ contains
     dc%imbalance = domain_imbalance(env, sum(w))
   end subroutine decomp_measure
 
-  !> Counts a halo exchange of `words` reals per copy.
+  !> Counts a halo exchange of `words` reals per copy (the images this rank
+  !> makes for itself are no message).
   subroutine count_sent(dc, words)
     type(decomposition_t), intent(inout) :: dc
     integer, intent(in) :: words
     integer :: q
     if (.not. allocated(dc%halo%send_start)) return
-    dc%words_sent = dc%words_sent + real(words, wp) * dc%halo%n_sent
+    dc%words_sent = dc%words_sent + real(words, wp) * (dc%halo%n_sent - dc%halo%n_self)
     do q = 0, size(dc%halo%send_start) - 2
+      if (q == dc%halo%rank) cycle
       if (dc%halo%send_start(q + 1) > dc%halo%send_start(q)) &
         dc%messages_sent = dc%messages_sent + 1
     end do
@@ -128,6 +131,7 @@ contains
     k = 0
     if (.not. allocated(dc%halo%send_start)) return
     do q = 0, size(dc%halo%send_start) - 2
+      if (q == dc%halo%rank) cycle
       if (dc%halo%send_start(q + 1) > dc%halo%send_start(q) .or. &
           dc%halo%recv_start(q + 1) > dc%halo%recv_start(q)) k = k + 1
     end do

@@ -9,7 +9,9 @@ module halo_exchange
   use particles, only: particles_t, particles_reserve, particles_permute, particles_pack, &
                        particles_unpack, particles_field, particles_field_i8
   use particle_fields, only: FIELD_TABLE, N_FIELDS, MIGRATE_FIELDS, HALO_FIELDS, &
-                             REFRESH_FIELDS, MIGRATE_WORDS, HALO_WORDS, REFRESH_WORDS
+                             REFRESH_FIELDS, MIGRATE_WORDS, HALO_WORDS, REFRESH_WORDS, FIELD_ID
+  use mirrors, only: mirror_codes, reflect, plane_distance2, image_id, reflect_column, &
+                     REFLECT_VECTOR
   use domain, only: domain_t, domain_owner, domain_ranks_near
   use parallel_env, only: parallel_env_t
   use mpi_f08, only: MPI_Alltoall, MPI_Isend, MPI_Irecv, MPI_Waitall, MPI_Request, &
@@ -20,10 +22,17 @@ module halo_exchange
 
   !> Who gets which halo copies: owned particles send_idx(send_start(q)+1 :
   !> send_start(q+1)) go to rank q; copies from rank q land in slots
-  !> n + recv_start(q) + 1 .. n + recv_start(q+1).
+  !> n + recv_start(q) + 1 .. n + recv_start(q+1).  send_code(k) is the
+  !> reflection of send_idx(k) (0: a plain copy); flip lists the k with a
+  !> nonzero code.  The block to this rank itself holds only images.
   type :: halo_t
     integer, allocatable :: send_start(:), send_idx(:), recv_start(:)
+    integer, allocatable :: send_code(:), flip(:)
+    integer :: mirror = 0     !< the planes' mask (mirrors), 0 for none
+    integer :: rank = 0
     integer :: n_sent = 0, n_received = 0
+    integer :: n_self = 0     !< images this rank made for itself
+    integer :: n_images = 0   !< images among the received
     !> the refreshes' message buffers, sized at the build and reused (the
     !> time loop allocates nothing for them)
     real(wp), allocatable :: sbuf(:), rbuf(:)
@@ -83,53 +92,70 @@ contains
     type(domain_t), intent(in) :: d
     type(particles_t), intent(inout) :: parts
     real(wp), intent(in) :: radius
-    integer, allocatable :: counts(:), rcounts(:), fill(:)
+    integer, allocatable :: counts(:), rcounts(:), fill(:), codes(:), icounts(:), ircounts(:)
     real(wp), allocatable :: sbuf(:, :), rbuf(:, :)
-    integer :: ranks(env%nranks), nr, i, q, p, n, j, pass
+    real(wp) :: xm(3)
+    integer :: ranks(env%nranks), nr, i, q, p, n, j, pass, c
     p = env%nranks
     n = parts%n
+    h%rank = env%rank
     parts%n_halo = 0
     if (allocated(h%send_start)) deallocate(h%send_start, h%send_idx, h%recv_start)
+    if (allocated(h%send_code)) deallocate(h%send_code, h%flip)
     allocate(h%send_start(0:p), h%recv_start(0:p), counts(0:p - 1), rcounts(0:p - 1))
+    allocate(icounts(0:p - 1), ircounts(0:p - 1))
     h%send_start = 0
     h%recv_start = 0
     h%n_sent = 0
     h%n_received = 0
-    if (p == 1) then
-      allocate(h%send_idx(0))
+    h%n_self = 0
+    h%n_images = 0
+    if (p == 1 .and. h%mirror == 0) then
+      allocate(h%send_idx(0), h%send_code(0), h%flip(0))
       return
     end if
-    ! two passes over the particles: count, then fill the send lists
+    codes = mirror_codes(h%mirror)
+    ! two passes over the particles: count, then fill the send lists; per
+    ! particle its copies (code 0), then its images by ascending code
     counts = 0
+    icounts = 0
     do pass = 1, 2
       if (pass == 2) then
         do q = 0, p - 1
           h%send_start(q + 1) = h%send_start(q) + counts(q)
         end do
-        allocate(h%send_idx(h%send_start(p)), fill(0:p - 1))
+        allocate(h%send_idx(h%send_start(p)), h%send_code(h%send_start(p)), fill(0:p - 1))
         fill = h%send_start(0:p - 1)
       end if
       do i = 1, n
         call domain_ranks_near(d, parts%x(:, i), radius, ranks, nr)
         do j = 1, nr
-          q = ranks(j)
-          if (pass == 1) then
-            counts(q) = counts(q) + 1
-          else
-            fill(q) = fill(q) + 1
-            h%send_idx(fill(q)) = i
-          end if
+          call add(ranks(j), i, 0)
+        end do
+        do c = 1, size(codes)
+          if (plane_distance2(parts%x(:, i), codes(c)) >= radius**2) cycle
+          xm = reflect(parts%x(:, i), codes(c))
+          call add(domain_owner(d, xm), i, codes(c))
+          call domain_ranks_near(d, xm, radius, ranks, nr)
+          do j = 1, nr
+            call add(ranks(j), i, codes(c))
+          end do
         end do
       end do
     end do
     call MPI_Alltoall(counts, 1, MPI_INTEGER, rcounts, 1, MPI_INTEGER, env%comm)
+    call MPI_Alltoall(icounts, 1, MPI_INTEGER, ircounts, 1, MPI_INTEGER, env%comm)
     do q = 0, p - 1
       h%recv_start(q + 1) = h%recv_start(q) + rcounts(q)
     end do
     h%n_sent = h%send_start(p)
     h%n_received = h%recv_start(p)
+    h%n_self = counts(env%rank)
+    h%n_images = sum(ircounts)
+    h%flip = pack([(j, j = 1, h%n_sent)], h%send_code /= 0)
     allocate(sbuf(HALO_WORDS, max(1, h%n_sent)), rbuf(HALO_WORDS, max(1, h%n_received)))
     call particles_pack(parts, HALO_FIELDS, h%send_idx, sbuf)
+    call reflect_packed(h, HALO_FIELDS, sbuf)
     call exchange(env, HALO_WORDS, h%send_start, sbuf, h%recv_start, rbuf)
     call particles_reserve(parts, n + h%n_received)
     call particles_unpack(parts, HALO_FIELDS, n, h%n_received, rbuf)
@@ -137,7 +163,51 @@ contains
     parts%n_halo = h%n_received
     call reserve_buffer(h%sbuf, REFRESH_WORDS * h%n_sent)
     call reserve_buffer(h%rbuf, REFRESH_WORDS * h%n_received)
+
+  contains
+
+    !> Particle i goes to rank q, reflected by the code.
+    subroutine add(q, i, code)
+      integer, intent(in) :: q, i, code
+      if (pass == 1) then
+        counts(q) = counts(q) + 1
+        if (code /= 0) icounts(q) = icounts(q) + 1
+      else
+        fill(q) = fill(q) + 1
+        h%send_idx(fill(q)) = i
+        h%send_code(fill(q)) = code
+      end if
+    end subroutine add
+
   end subroutine halo_build
+
+  !> (M2) The images among the packed columns of buf (the fields `list`,
+  !> packed by particles_pack) reflected: polar vectors flip the code's
+  !> components, the id becomes the image's, scalars stay.
+  subroutine reflect_packed(h, list, buf)
+    type(halo_t), intent(in) :: h
+    integer, intent(in) :: list(:)
+    real(wp), intent(inout) :: buf(:, :)
+    integer :: j, f, r, nc, l, k
+    r = 0
+    do j = 1, size(list)
+      f = list(j)
+      nc = FIELD_TABLE(f)%ncomp
+      if (f == FIELD_ID) then
+        do l = 1, size(h%flip)
+          k = h%flip(l)
+          buf(r + 1, k) = transfer(image_id(transfer(buf(r + 1, k), 1_i8), h%send_code(k)), &
+                                   1.0_wp)
+        end do
+      else if (nc == 3) then
+        do l = 1, size(h%flip)
+          k = h%flip(l)
+          call reflect_column(REFLECT_VECTOR, h%send_code(k), buf(r + 1:r + 3, k))
+        end do
+      end if
+      r = r + nc
+    end do
+  end subroutine reflect_packed
 
   !> buf holds at least `words` reals (at least one), reallocated only to
   !> grow or when it is more than twice too large.
@@ -158,30 +228,36 @@ contains
     type(parallel_env_t), intent(in) :: env
     type(particles_t), intent(inout) :: parts
     real(wp), pointer, contiguous :: sbuf(:, :), rbuf(:, :)
-    if (env%nranks == 1) return
+    if (env%nranks == 1 .and. h%mirror == 0) return
     sbuf(1:REFRESH_WORDS, 1:max(1, h%n_sent)) => h%sbuf
     rbuf(1:REFRESH_WORDS, 1:max(1, h%n_received)) => h%rbuf
     call particles_pack(parts, REFRESH_FIELDS, h%send_idx, sbuf)
+    call reflect_packed(h, REFRESH_FIELDS, sbuf)
     call exchange(env, REFRESH_WORDS, h%send_start, sbuf, h%recv_start, rbuf)
     call particles_unpack(parts, REFRESH_FIELDS, parts%n, h%n_received, rbuf)
   end subroutine halo_refresh
 
   !> Copies a per-particle field a(ncomp, :) of the owned particles into the
-  !> halo slots n+1.. of the other ranks (e.g. the density gradient).
-  subroutine halo_refresh_field(h, env, n, a)
+  !> halo slots n+1.. of the other ranks (e.g. the density gradient); kind
+  !> says how its images reflect (mirrors: REFLECT_SCALAR, _VECTOR, _SYM6).
+  subroutine halo_refresh_field(h, env, n, a, kind)
     type(halo_t), intent(inout), target :: h
     type(parallel_env_t), intent(in) :: env
-    integer, intent(in) :: n
+    integer, intent(in) :: n, kind
     real(wp), intent(inout) :: a(:, :)
     real(wp), pointer, contiguous :: sbuf(:, :), rbuf(:, :)
-    integer :: k, nc
-    if (env%nranks == 1) return
+    integer :: k, nc, l
+    if (env%nranks == 1 .and. h%mirror == 0) return
     nc = size(a, 1)
     if (nc > REFRESH_WORDS) error stop 'halo_refresh_field: more components than the buffers hold'
     sbuf(1:nc, 1:max(1, h%n_sent)) => h%sbuf
     rbuf(1:nc, 1:max(1, h%n_received)) => h%rbuf
     do k = 1, h%n_sent
       sbuf(:, k) = a(:, h%send_idx(k))
+    end do
+    do l = 1, size(h%flip)
+      k = h%flip(l)
+      call reflect_column(kind, h%send_code(k), sbuf(:, k))
     end do
     call exchange(env, nc, h%send_start, sbuf, h%recv_start, rbuf)
     do k = 1, h%n_received
@@ -237,7 +313,8 @@ contains
 
   !> Point-to-point exchange of columns of `words` reals: columns
   !> send_start(q)+1 .. send_start(q+1) of sbuf go to rank q, and columns
-  !> recv_start(q)+1 .. recv_start(q+1) of rbuf come from rank q.
+  !> recv_start(q)+1 .. recv_start(q+1) of rbuf come from rank q; the block
+  !> of this rank itself (images, in a migration empty) is copied.
   subroutine exchange(env, words, send_start, sbuf, recv_start, rbuf)
     type(parallel_env_t), intent(in) :: env
     integer, intent(in) :: words, send_start(0:), recv_start(0:)
@@ -261,6 +338,10 @@ contains
       call MPI_Isend(sbuf(:, send_start(q) + 1:), words * cnt, MPI_DOUBLE_PRECISION, q, 17, &
                      env%comm, req(nreq))
     end do
+    q = env%rank
+    cnt = send_start(q + 1) - send_start(q)
+    if (cnt > 0) rbuf(:, recv_start(q) + 1:recv_start(q) + cnt) = &
+      sbuf(:, send_start(q) + 1:send_start(q) + cnt)
     call MPI_Waitall(nreq, req(1:nreq), MPI_STATUSES_IGNORE)
   end subroutine exchange
 

@@ -17,6 +17,7 @@ module solver
   use parallel_env, only: parallel_env_t, par_max, wall_time
   use decomposition, only: decomposition_t, decomp_redistribute, decomp_halo_build, &
                            decomp_refresh, decomp_refresh_field, decomp_measure, BALANCE_PAIRS
+  use mirrors, only: REFLECT_SCALAR, REFLECT_VECTOR, REFLECT_SYM6
   use integrators, only: integrator_t, integrator_reserve, integrator_stages, integrator_advance
   implicit none
   private
@@ -281,12 +282,13 @@ contains
           call rhs_renormalisation(s%rhs, pt%n, ntot, pt%x, pt%rho, pt%m, s%lm%nl, &
                                    s%lambda(1, :), lmat=s%lmat, work=s%rw)
         end if
-        if (antuono) call decomp_refresh_field(s%dc, env, pt%n, s%grad_rho)
+        if (antuono) call decomp_refresh_field(s%dc, env, pt%n, s%grad_rho, REFLECT_VECTOR)
         ! the lambda of halo partners: (H1) p = 0 on free-surface ones, (H2)
         ! B_j from L_j and lambda_j
-        if (corrected .or. adjoint) call decomp_refresh_field(s%dc, env, pt%n, s%lambda)
-        if (adjoint) call decomp_refresh_field(s%dc, env, pt%n, s%lmat)
-        if (recon) call decomp_refresh_field(s%dc, env, pt%n, s%strain)
+        if (corrected .or. adjoint) &
+          call decomp_refresh_field(s%dc, env, pt%n, s%lambda, REFLECT_SCALAR)
+        if (adjoint) call decomp_refresh_field(s%dc, env, pt%n, s%lmat, REFLECT_SYM6)
+        if (recon) call decomp_refresh_field(s%dc, env, pt%n, s%strain, REFLECT_SYM6)
         call rhs_evaluate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, pt%p, s%grad_rho, &
                           s%lm%nl, s%drho, s%du, s%lambda(1, :), s%lmat, s%rw, s%strain)
       else
@@ -312,7 +314,7 @@ contains
       ntot = pt%n + pt%n_halo
       call rhs_strain_rate(s%rhs, pt%n, ntot, pt%x, pt%u, pt%rho, pt%m, s%lm%nl, s%lmat, &
                            s%strain, s%rw)
-      call decomp_refresh_field(s%dc, env, pt%n, s%strain)
+      call decomp_refresh_field(s%dc, env, pt%n, s%strain, REFLECT_SYM6)
       s%timing%pair_visits = s%timing%pair_visits + real(s%lm%nl%n_pairs, wp)
     end associate
   end subroutine strain_rate
