@@ -16,6 +16,12 @@
 !> a sample chosen by global id (every stride-th): any F, b gives a valid
 !> bound as long as e_max is the largest residual of all particles, which
 !> it always is; the sample only makes F and b cheaper.
+!>
+!> With mirror planes (mirrors) the fit is the whole body's: the means and
+!> the moments odd in a mirrored coordinate vanish over the part and its
+!> images, so they are set to 0.  Then F commutes with every reflection R
+!> and R b = b, an image's residual is R e_j, and the bound holds for the
+!> pairs (i, image of j) with the part's e_max.
 module affine_motion
   use kinds, only: wp, i8
   use parallel_env, only: parallel_env_t, par_sum_exact, par_max
@@ -32,19 +38,23 @@ contains
   !> With id and stride, the fit uses only the particles whose global id is
   !> a multiple of stride.  A degenerate cloud (fewer than dim + 1
   !> independent points) gets A = 0, b = mean of y: still a valid
-  !> decomposition, only a less useful one.
-  subroutine affine_fit(env, dim, n, x, y, a, b, e_max, id, stride)
+  !> decomposition, only a less useful one.  mirror: the planes' mask (the
+  !> whole body's fit, see above).
+  subroutine affine_fit(env, dim, n, x, y, a, b, e_max, id, stride, mirror)
     type(parallel_env_t), intent(in) :: env
     integer, intent(in) :: dim, n
     real(wp), intent(in) :: x(:, :), y(:, :)
     real(wp), intent(out) :: a(3, 3), b(3), e_max
     integer(i8), intent(in), optional :: id(:)
     integer(i8), intent(in), optional :: stride
+    integer, intent(in), optional :: mirror
     real(wp), allocatable :: t(:, :)
     integer, allocatable :: pick(:)
     real(wp) :: xm(3), ym(3), cxx(3, 3), cyx(3, 3), s(15), ntot, m(3, 3), r2, ax
     integer, parameter :: P(6) = [1, 1, 1, 2, 2, 3], Q(6) = [1, 2, 3, 2, 3, 3]
-    integer :: i, ii, k, l, ns
+    integer :: i, ii, k, l, ns, mask
+    mask = 0
+    if (present(mirror)) mask = mirror
     if (present(id) .and. present(stride)) then
       pick = pack([(i, i = 1, n)], mod(id(1:n), max(stride, 1_i8)) == 0)
     else
@@ -68,6 +78,11 @@ contains
       xm = s(1:3) / ntot
       ym = s(4:6) / ntot
     end if
+    do k = 1, 3
+      if (.not. btest(mask, k - 1)) cycle
+      xm(k) = 0
+      ym(k) = 0
+    end do
     do ii = 1, ns
       i = pick(ii)
       do k = 1, 6
@@ -85,6 +100,14 @@ contains
       cxx(Q(k), P(k)) = s(k)
     end do
     cyx = reshape(s(7:15), [3, 3])
+    do l = 1, 3
+      do k = 1, 3
+        if (k /= l .and. (btest(mask, k - 1) .or. btest(mask, l - 1))) then
+          cxx(k, l) = 0
+          cyx(k, l) = 0
+        end if
+      end do
+    end do
     a = 0
     if (invert_spd(dim, cxx, m)) a(1:dim, 1:dim) = matmul(cyx(1:dim, 1:dim), m(1:dim, 1:dim))
     b = 0

@@ -25,6 +25,7 @@ module list_manager
     real(wp) :: dt_valid = huge(1.0_wp)
     integer :: n_rebuilds = 0
     logical :: force_rebuild = .false.   !< rebuild at the next check
+    integer :: mirror = 0                !< the planes' mask (affine_fit)
   end type list_manager_t
 
 contains
@@ -72,8 +73,8 @@ contains
     integer(i8) :: stride
     ! F and V from about FIT_SAMPLE particles picked by id (affine_motion)
     stride = max(1_i8, nint(par_sum(env, real(n, wp)), i8) / FIT_SAMPLE)
-    call affine_fit(env, dim, n, x_ref, x, f, b, e_max, id, stride)
-    call affine_fit(env, dim, n, x, u, v, b, w_max, id, stride)
+    call affine_fit(env, dim, n, x_ref, x, f, b, e_max, id, stride, lm%mirror)
+    call affine_fit(env, dim, n, x, u, v, b, w_max, id, stride, lm%mirror)
     umax = 0
     if (n > 0) umax = sqrt(maxval(sum(u(:, 1:n)**2, dim=1)))
     umax = par_max(env, umax)
