@@ -38,6 +38,7 @@ module simulation
   use domain, only: DECOMP_SLAB, DECOMP_METIS, DECOMP_SFC
   use packing, only: packing_params_t, packing_report_t, pack_ball
   use placement, only: packed_volume
+  use mirrors, only: mirror_copies, mirror_word
   implicit none
   private
   public :: simulation_run, EXIT_CHECKPOINT
@@ -231,9 +232,9 @@ contains
       end if
       done = t >= t_end - tol .or. (cfg%run%max_steps > 0 .and. step >= cfg%run%max_steps)
 
-      i_bad = find_bad_particle(s%parts)
+      i_bad = find_bad_particle(s%parts, run%problem%mirror)
       if (par_any(env, i_bad > 0)) then
-        call report_blow_up(s, step, t, i_bad)
+        call report_blow_up(s, step, t, i_bad, run%problem%mirror)
         call timeseries_flush(run%ts, ok, errmsg)
         status = 1
         return
@@ -307,6 +308,9 @@ contains
     s%eos = eos_init(merge(EOS_TAIT, EOS_LINEAR, cfg%physics%eos == 'tait'), &
                      cfg%physics%c0, cfg%physics%rho0, cfg%physics%gamma)
     call config_case(cfg, run%problem)
+    ! the planes' images come with the halo; the list's fit is the body's
+    s%dc%halo%mirror = run%problem%mirror
+    s%lm%mirror = run%problem%mirror
     call run%problem%setup(cfg%particles, cfg%physics, s%eos, s%parts, dx, &
                            [env%rank, env%nranks])
     if (len_trim(cfg%particles%from) > 0) then
@@ -418,7 +422,7 @@ contains
       end if
       ! (S1) h/dx, c0, alpha and delta scale with particles.n: it must be
       ! the file's count (to the packing's rounding, under 1 % measured)
-      n_file = par_sum(env, real(n, wp))
+      n_file = par_sum(env, real(n, wp)) * mirror_copies(problem%mirror)
       if (ok .and. cfg%particles%n_ref > 0 .and. &
           abs(n_file - cfg%particles%n) > 0.02_wp * cfg%particles%n) then
         ok = .false.
@@ -433,7 +437,8 @@ contains
       ok = .false.
       return
     end if
-    vol = packed_volume(dim, radius, nint(par_sum(env, real(s%parts%n, wp)), i8))
+    vol = packed_volume(dim, radius, nint(par_sum(env, real(s%parts%n, wp)), i8) * &
+                        mirror_copies(problem%mirror))
     dx = vol**(1 / real(dim, wp))
     s%parts%m(1:s%parts%n) = vol
     s%parts%rho(1:s%parts%n) = 1
@@ -470,15 +475,17 @@ contains
     logical, intent(in), optional :: warn_empty_probes
     real(wp), allocatable :: row(:), case_values(:)
     real(wp) :: mom(3), p_probe(16)
-    integer :: k, dim
+    integer :: k, dim, mirror
     dim = s%parts%dim
-    mom = total_momentum(env, s%parts)
+    mirror = run%problem%mirror
+    mom = total_momentum(env, s%parts, mirror)
     p_probe = 0
     do k = 1, run%n_probes
       if (run%probe_quadratic) then
-        p_probe(k) = probe_pressure_quadratic(env, s%parts, s%rhs%kernel, run%probes(:, k))
+        p_probe(k) = probe_pressure_quadratic(env, s%parts, s%rhs%kernel, run%probes(:, k), &
+                                              mirror)
       else
-        p_probe(k) = probe_pressure(env, s%parts, s%rhs%kernel, run%probes(:, k))
+        p_probe(k) = probe_pressure(env, s%parts, s%rhs%kernel, run%probes(:, k), mirror)
       end if
     end do
     if (present(warn_empty_probes) .and. env%rank == 0) then
@@ -497,8 +504,8 @@ contains
       end do
     end if
     call run%problem%sample(env, t, s%parts, s%rhs%kernel, case_values)
-    row = [t, real(step, wp), dt, s%dc%imbalance, kinetic_energy(env, s%parts), &
-           total_mass(env, s%parts), &
+    row = [t, real(step, wp), dt, s%dc%imbalance, kinetic_energy(env, s%parts, mirror), &
+           total_mass(env, s%parts, mirror), &
            mom(1:dim), p_probe(1:run%n_probes), case_values]
     call timeseries_add(run%ts, row)
     run%imb_sum = run%imb_sum + s%dc%imbalance
@@ -856,13 +863,20 @@ contains
 
   !> A state that is no longer finite: say where and when, on every rank
   !> that has such a particle; earlier outputs stay as they were.
-  subroutine report_blow_up(s, step, t, i_bad)
+  subroutine report_blow_up(s, step, t, i_bad, mirror)
     type(solver_t), intent(in) :: s
-    integer, intent(in) :: step, i_bad
+    integer, intent(in) :: step, i_bad, mirror
     real(wp), intent(in) :: t
+    integer :: k
+    character(len=:), allocatable :: what
     if (i_bad > 0) then
+      what = 'the state is no longer finite'
+      do k = 1, 3
+        if (btest(mirror, k - 1) .and. .not. s%parts%x(k, i_bad) > 0) &
+          what = 'a particle reached the mirror plane ' // 'xyz'(k:k) // ' = 0'
+      end do
       write(error_unit, '(a,i0,a,es12.5,a,i0,a,3es12.4,a,3es12.4,a,es12.4)') &
-        'sph: error: the state is no longer finite at step ', step, ', t = ', t, &
+        'sph: error: ' // what // ' at step ', step, ', t = ', t, &
         ': particle id ', s%parts%id(i_bad), ' at x = ', s%parts%x(:, i_bad), &
         ', u = ', s%parts%u(:, i_bad), ', rho = ', s%parts%rho(i_bad)
       write(error_unit, '(a)') '  (try a smaller numerics.cfl; outputs up to the last ' // &

@@ -37,7 +37,11 @@ module case_base
     character(len=60) :: help = ''       !< what the case is, e.g. 'the rotating square patch (2D)'
     !> why placement = 'packed' cannot serve the case, '' if it can
     character(len=60) :: no_packing = 'it has no packing'
+    !> why mirror planes cannot serve the case, '' if they can
+    character(len=60) :: no_symmetry = 'its flow is not mirror-symmetric'
     integer :: dim = 2
+    !> the mirror planes' mask (mirrors; particles.symmetry), 0 for none
+    integer :: mirror = 0
     !> > 0: the set-up placed a first guess to be relaxed by the packing
     !> (doc/packing.md) in the ball of this radius, after which
     !> initial_state sets the physical state at the packed positions

@@ -26,6 +26,7 @@ contains
     c%name = 'circle2d'
     c%help = 'the stretching circular patch (2D)'
     c%no_packing = ''
+    c%no_symmetry = ''
     c%dim = 2
     c%rates = [-1.0_wp, 1.0_wp, 0.0_wp]
   end function circle2d_case

@@ -31,6 +31,7 @@ contains
     c%name = 'ellipsoid3d'
     c%help = 'the stretching sphere (3D)'
     c%no_packing = ''
+    c%no_symmetry = ''
     c%dim = 3
     c%rates = [-1.0_wp, -1.0_wp, 2.0_wp]
   end function ellipsoid3d_case

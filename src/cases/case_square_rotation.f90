@@ -27,6 +27,7 @@ contains
     c%name = 'square_rotation'
     c%help = 'the rotating square patch (2D)'
     c%no_packing = 'the square patches are always on a lattice'
+    c%no_symmetry = 'the rotating square has no mirror plane'
     c%dim = 2
     c%kind = SQ_ROTATION
   end function square_rotation_case

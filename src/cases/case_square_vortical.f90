@@ -27,6 +27,7 @@ contains
     c%name = 'square_vortical'
     c%help = 'the vortical square patch (2D)'
     c%no_packing = 'the square patches are always on a lattice'
+    c%no_symmetry = 'its only mirror line is y = -x, not a coordinate plane'
     c%dim = 2
     c%kind = SQ_VORTICAL
   end function square_vortical_case

@@ -13,6 +13,7 @@ module case_stretching
   use kernels, only: kernel_t
   use particles, only: particles_t, particles_allocate
   use placement, only: place_ball, ball_spacing, packed_volume
+  use mirrors, only: mirror_copies
   use eos, only: eos_t, eos_density
   use exact_ellipse, only: ellipse_exact_t, ellipse_exact_init, ellipse_exact_at, &
                            ellipse_centre_pressure, ellipse_map, ellipse_velocity, &
@@ -77,11 +78,14 @@ contains
                             self%a0 * self%rates(1:self%dim))
     self%p0 = ellipse_centre_pressure(self%ex)
     dx = ball_spacing(self%dim, self%radius, particles%n, place)
-    call place_ball(self%dim, self%radius, dx, place, x, vol, share, first, n_total)
+    call place_ball(self%dim, self%radius, dx, place, x, vol, share, first, n_total, &
+                    self%mirror)
     np = size(vol)
     ! packed: equal volumes |Omega|/N, dx the spacing that goes with them
+    ! (N the whole body's: the part's count times the copies)
     if (place == PLACE_PACKED) then
-      dx = packed_volume(self%dim, self%radius, int(n_total, i8))**(1 / real(self%dim, wp))
+      dx = packed_volume(self%dim, self%radius, int(n_total, i8) * mirror_copies(self%mirror)) &
+           **(1 / real(self%dim, wp))
       self%pack_radius = self%radius
     end if
     call particles_allocate(parts, self%dim, max(np, 1))
@@ -162,8 +166,8 @@ contains
     real(wp) :: s(4), fit(3), fit_exact(3), ue(3), a_over_r(3), p_centre
     integer :: i, n, d
     associate(st => self)
-    p_centre = probe_pressure(env, parts, kernel, [0.0_wp, 0.0_wp, 0.0_wp])
-    if (st%ke_start < 0) st%ke_start = kinetic_energy(env, parts)
+    p_centre = probe_pressure(env, parts, kernel, [0.0_wp, 0.0_wp, 0.0_wp], st%mirror)
+    if (st%ke_start < 0) st%ke_start = kinetic_energy(env, parts, st%mirror)
     n = parts%n
     d = st%dim
     call ellipse_exact_at(st%ex, t)
@@ -179,8 +183,9 @@ contains
       s(4) = s(4) + 1
     end do
     call par_sum_array(env, s)
-    fit = fitted_semi_axes(env, d, n, parts%m, parts%x)
-    fit_exact = fitted_semi_axes(env, d, n, parts%m, xe)
+    s(3) = s(3) * mirror_copies(st%mirror)    ! the whole body's
+    fit = fitted_semi_axes(env, d, n, parts%m, parts%x, st%mirror)
+    fit_exact = fitted_semi_axes(env, d, n, parts%m, xe, st%mirror)
     st%pos_err = sqrt(s(1) / s(4)) / st%radius
     st%vel_err = sqrt(s(2) / s(4)) / (st%a0 * st%radius)
     st%ke_exact = s(3)
@@ -260,8 +265,8 @@ contains
     real(wp) :: pc, ke, p_centre
     integer :: k
     character(len=1), parameter :: ax(3) = ['x', 'y', 'z']
-    ke = kinetic_energy(env, parts)
-    p_centre = probe_pressure(env, parts, kernel, [0.0_wp, 0.0_wp, 0.0_wp])
+    ke = kinetic_energy(env, parts, self%mirror)
+    p_centre = probe_pressure(env, parts, kernel, [0.0_wp, 0.0_wp, 0.0_wp], self%mirror)
     if (env%rank /= 0) return
     associate(st => self, ke_start => self%ke_start)
     call ellipse_exact_at(st%ex, t)

@@ -16,9 +16,16 @@
 !> Every placement numbers its particles 1..N in a fixed order, so a rank
 !> can generate its own share (a contiguous range of numbers) without the
 !> others: the set-up is distributed, no rank holds all particles.
+!>
+!> With mirror planes (mirrors) 'lattice' and 'packed' place the part
+!> x_k > 0 of the body on each mirrored axis k: the lattice points with
+!> i >= 0 there (every coordinate at least dx/2, none on a plane), whose
+!> reflections are exactly the full lattice; the packing's guess keeps
+!> x_k >= dx/4, and the volumes are those of the whole body's count.
 module placement
   use kinds, only: wp, pi, i8
   use shares, only: share_range
+  use mirrors, only: mirror_copies
   implicit none
   private
   public :: place_ball, ball_spacing, PLACE_RINGS, PLACE_LATTICE, PLACE_PACKED, hash_uniform, &
@@ -50,21 +57,26 @@ contains
   !> Positions x(3, :) and volumes vol(:) of the particles of the ball:
   !> all of them, or with share = [r, P] the r-th of P contiguous shares of
   !> their numbers (r = 0..P-1: numbers floor(r N/P) + 1 .. floor((r+1) N/P)).
-  !> first: the number of x(:, 1); n_total: N.
-  subroutine place_ball(dim, radius, dx, kind, x, vol, share, first, n_total)
+  !> first: the number of x(:, 1); n_total: N (of the part with mirror, the
+  !> planes' mask; rings have no planes).
+  subroutine place_ball(dim, radius, dx, kind, x, vol, share, first, n_total, mirror)
     integer, intent(in) :: dim, kind
     real(wp), intent(in) :: radius, dx
     real(wp), allocatable, intent(out) :: x(:, :), vol(:)
     integer, intent(in), optional :: share(2)
     integer, intent(out), optional :: first, n_total
-    integer :: total, lo, hi
+    integer, intent(in), optional :: mirror
+    integer :: total, lo, hi, mask
     integer(i8) :: first8, last8
+    mask = 0
+    if (present(mirror)) mask = mirror
+    if (mask /= 0 .and. kind == PLACE_RINGS) error stop 'place_ball: rings have no mirror planes'
     if (kind == PLACE_RINGS .and. dim == 2) then
       total = rings_2d_count(radius, dx)
     else if (kind == PLACE_RINGS) then
       total = shells_3d_count(radius, dx)
     else
-      total = clipped_lattice_count(dim, radius, dx)
+      total = clipped_lattice_count(dim, radius, dx, mask)
     end if
     lo = 1
     hi = total
@@ -80,8 +92,8 @@ contains
     else if (kind == PLACE_RINGS) then
       call shells_3d(radius, dx, lo, hi, x, vol)
     else
-      call clipped_lattice(dim, radius, dx, lo, hi, x, vol)
-      if (kind == PLACE_PACKED) call perturb(dim, radius, dx, lo, total, x, vol)
+      call clipped_lattice(dim, radius, dx, lo, hi, x, vol, mask)
+      if (kind == PLACE_PACKED) call perturb(dim, radius, dx, lo, total, x, vol, mask)
     end if
     if (present(first)) first = lo
     if (present(n_total)) n_total = total
@@ -89,8 +101,10 @@ contains
 
   !> The packing's first guess from the clipped lattice (see the header),
   !> for the particles numbered lo.. of total.
-  subroutine perturb(dim, radius, dx, lo, total, x, vol)
-    integer, intent(in) :: dim, lo, total
+  !> With planes (mask) the points stay dx/4 off them: a particle on a
+  !> plane would meet its own image.
+  subroutine perturb(dim, radius, dx, lo, total, x, vol, mask)
+    integer, intent(in) :: dim, lo, total, mask
     real(wp), intent(in) :: radius, dx
     real(wp), intent(inout) :: x(:, :), vol(:)
     real(wp) :: r, r_max
@@ -102,8 +116,11 @@ contains
       end do
       r = norm2(x(:, i))
       if (r > r_max) x(:, i) = x(:, i) * (r_max / r)
+      do k = 1, dim
+        if (btest(mask, k - 1)) x(k, i) = max(abs(x(k, i)), 0.25_wp * dx)
+      end do
     end do
-    vol = packed_volume(dim, radius, int(total, i8))
+    vol = packed_volume(dim, radius, int(total, i8) * mirror_copies(mask))
   end subroutine perturb
 
   !> The volume of each of n packed particles, |Omega|/n (one expression for
@@ -227,21 +244,24 @@ contains
   end function shell_count
 
   !> Lattice points ((i + 1/2) dx, ...) inside the ball, symmetric about the
-  !> centre in every axis.
+  !> centre in every axis; on the mirrored axes of mask only i >= 0.
   !> (numbers lo..hi; the count with lo > hi, x and vol then untouched)
-  subroutine clipped_lattice(dim, radius, dx, lo, hi, x, vol, total)
-    integer, intent(in) :: dim, lo, hi
+  subroutine clipped_lattice(dim, radius, dx, lo, hi, x, vol, mask, total)
+    integer, intent(in) :: dim, lo, hi, mask
     real(wp), intent(in) :: radius, dx
     real(wp), intent(inout) :: x(:, :), vol(:)
     integer, intent(out), optional :: total
-    integer :: m, i, j, k, kz, np
+    integer :: m, i, j, k, kz, np, i0, j0, k0
     real(wp) :: p(3)
     m = ceiling(radius / dx)
     kz = merge(m, 0, dim == 3)
+    i0 = merge(0, -m, btest(mask, 0))
+    j0 = merge(0, -m, btest(mask, 1))
+    k0 = merge(0, -kz, btest(mask, 2))
     np = 0
-    do k = -kz, max(kz - 1, 0)
-      do j = -m, m - 1
-        do i = -m, m - 1
+    do k = k0, max(kz - 1, 0)
+      do j = j0, m - 1
+        do i = i0, m - 1
           p = [(i + 0.5_wp) * dx, (j + 0.5_wp) * dx, 0.0_wp]
           if (dim == 3) p(3) = (k + 0.5_wp) * dx
           if (sum(p**2) >= radius**2) cycle
@@ -256,11 +276,11 @@ contains
     if (present(total)) total = np
   end subroutine clipped_lattice
 
-  integer function clipped_lattice_count(dim, radius, dx) result(total)
-    integer, intent(in) :: dim
+  integer function clipped_lattice_count(dim, radius, dx, mask) result(total)
+    integer, intent(in) :: dim, mask
     real(wp), intent(in) :: radius, dx
     real(wp) :: x(3, 0), vol(0)
-    call clipped_lattice(dim, radius, dx, 1, 0, x, vol, total)
+    call clipped_lattice(dim, radius, dx, 1, 0, x, vol, mask, total)
   end function clipped_lattice_count
 
 end module placement

@@ -14,6 +14,7 @@
 module config
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use kinds, only: wp, i8
+  use mirrors, only: mirror_mask
   use input_text, only: fail, closest, allowed_words, quoted_list, quoted, shown_value, &
                         unquoted, value_is_bare, base_name, word_at, name_end_at, lower, pad, &
                         int_str, num_str, real_list, real_str
@@ -240,6 +241,7 @@ contains
     k = selected_case(cfg)
     if (k == 0) error stop 'config_case: unknown case (config_load rejects it)'
     allocate(c, source=cfg%cases(k)%c)
+    c%mirror = mirror_mask(trim(cfg%particles%symmetry))
   end subroutine config_case
 
   ! ------------------------------------------------------------------------
@@ -748,7 +750,7 @@ contains
     character(len=:), allocatable, intent(inout) :: err
     type(group_t), allocatable :: groups(:)
     type(var_t), allocatable :: vars(:)
-    character(len=:), allocatable :: text, origin, head, formula, dir, var, what, hint
+    character(len=:), allocatable :: text, origin, head, formula, dir, var, what, hint, sym
     character(len=NAME_LEN), allocatable :: list(:)
     real(wp) :: x, speed
     integer :: k, line, sel
@@ -815,6 +817,40 @@ contains
                   '; ' // trim(c%cases(sel)%c%no_packing))
         return
       end if
+    end if
+
+    if (c%particles%symmetry /= 'none') then
+      call origin_of(origins, path, 'particles.symmetry', origin, line)
+      sym = '&particles symmetry = ' // quoted(trim(c%particles%symmetry))
+      if (sel > 0) then
+        if (len_trim(c%cases(sel)%c%no_symmetry) > 0) then
+          call fail(err, origin, sym // ' is not available for ' // trim(c%run%case_name), &
+                    line, ': ' // trim(c%cases(sel)%c%no_symmetry) // ' (mirror planes ' // &
+                    'serve circle2d and ellipsoid3d)')
+          return
+        end if
+      end if
+      if (index(c%particles%symmetry, 'z') > 0 .and. config_dim(c) == 2) then
+        call fail(err, origin, sym // ' names the plane z = 0 in a 2D case', line, &
+                  ': use x, y or xy')
+        return
+      end if
+      if (c%particles%placement == 'rings') then
+        call fail(err, origin, sym // ' with placement = ''rings''', line, ': rings put ' // &
+                  'particles on the planes; use placement = ''lattice'' or ''packed''')
+        return
+      end if
+      if (c%numerics%shifting) then
+        call fail(err, origin, sym // ' with numerics.shifting = .true.', line, ': the ' // &
+                  'shifting does not know the planes; set shifting = .false.')
+        return
+      end if
+    else if (c%output%mirror) then
+      call origin_of(origins, path, 'output.mirror', origin, line)
+      call fail(err, origin, '&output mirror = .true. without mirror planes', line, &
+                ': it writes the reflections of the part; set particles.symmetry, or ' // &
+                'leave mirror = .false.')
+      return
     end if
 
     call origin_of(origins, path, 'output.probes', origin, line)

@@ -42,6 +42,8 @@ module input_params
     [character(len=NAME_LEN) :: 'auto', 'slab', 'metis', 'sfc']
   character(len=NAME_LEN), parameter :: BALANCES(*) = &
     [character(len=NAME_LEN) :: 'particles', 'pairs']
+  character(len=NAME_LEN), parameter :: SYMMETRIES(*) = &
+    [character(len=NAME_LEN) :: 'none', 'x', 'y', 'z', 'xy', 'xz', 'yz', 'xyz']
 
   !> A namelist group: its name and a line saying what it is for.
   type :: group_t
@@ -64,7 +66,7 @@ module input_params
   integer, parameter :: CH_CASE = 1, CH_PLACEMENT = 2, CH_EOS = 3, &
                         CH_KERNEL = 4, CH_INTEGRATOR = 5, CH_VISCOSITY = 6, CH_DIFFUSION = 7, &
                         CH_DECOMPOSITION = 8, CH_BALANCE = 9, CH_PRESSURE_GRADIENT = 10, &
-                        CH_DIVERGENCE = 11, CH_RENORMALISE = 12
+                        CH_DIVERGENCE = 11, CH_RENORMALISE = 12, CH_SYMMETRY = 13
 
   !> The variables of the generic groups (group: index into GENERIC_GROUPS).
   type(var_t), parameter :: GENERIC_VARS(*) = [ &
@@ -130,6 +132,16 @@ module input_params
               'particle count and `n` is not used, except with `n_ref > 0`, whose scaling ' // &
               'takes h/dx, c0, alpha and delta from `n`: then `n` must be the file''s ' // &
               'count (within 2 %)'), &
+    var_t(G_PARTICLES, 'symmetry', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
+          CH_SYMMETRY, '', 'mirror planes x = 0, y = 0, z = 0 named by their normals: ' // &
+          'the run holds the part x_k > 0 (doc/symmetry.md)', &
+          doc='mirror planes through the centre, named by their normal axes (`''xyz''`: ' // &
+              'the three coordinate planes): the run holds the part of the body with ' // &
+              'x_k > 0 on each, and the particles near a plane see their mirror images ' // &
+              'as neighbours, so that the part moves as the whole body would ' // &
+              '([symmetry.md](symmetry.md)). `n` stays the whole body''s count; the run ' // &
+              'holds n / 2^(planes). circle2d and ellipsoid3d only, with `lattice` or ' // &
+              '`packed` and without shifting'), &
     var_t(G_PHYSICS, 'rho0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
           'reference density'), &
     var_t(G_PHYSICS, 'c0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
@@ -263,6 +275,13 @@ module input_params
               'kernel support by weighted least squares ([doc/theory.md](theory.md) D5): ' // &
               'exact for a quadratic pressure field, where the Shepard mean (D4) is off ' // &
               'by O(h^2) (0.56 (h/R)^2 P at the centre of the circular patch)'), &
+    var_t(G_OUTPUT, 'mirror', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
+          CH_NONE, '', 'with particles.symmetry: snapshots hold the whole body (the part ' // &
+          'and its reflections) instead of the part', &
+          doc='with `particles.symmetry`: every snapshot holds the whole body, the part ' // &
+              'followed by its reflections (for ParaView), instead of the part alone; ' // &
+              'a restart from it reads the part ([symmetry.md](symmetry.md)). ' // &
+              'Checkpoints always hold the part'), &
     var_t(G_OUTPUT, 'n_probes', T_INT, SCALAR, LO_GE, HI_LE, 0.0_wp, real(MAX_PROBES, wp), &
           CH_NONE, '', 'number of pressure probes'), &
     var_t(G_OUTPUT, 'probes', T_REAL, [3, MAX_PROBES], LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
@@ -310,6 +329,7 @@ module input_params
     real(wp) :: h_exponent = 0
     integer :: pack_iterations = 300                     !< doc/packing.md
     character(len=DIR_LEN_MAX + 1) :: from = ''          !< snapshot of a packed distribution
+    character(len=NAME_LEN) :: symmetry = 'none'         !< mirror planes (mirrors)
   contains
     procedure, pass(p) :: read_group => read_particles
     procedure :: value_text => particles_value_text
@@ -365,6 +385,7 @@ module input_params
     integer :: probe_every = 1
     logical :: probe_quadratic = .false.                 !< (D5) instead of (D4)
     logical :: snapshots = .true.
+    logical :: mirror = .false.                          !< whole-body snapshots
     integer :: n_probes = 1
     real(wp) :: probes(3, MAX_PROBES) = 0.0_wp           !< probe k at probes(:, k)
   contains
@@ -411,6 +432,8 @@ contains
       list = DIVERGENCES
     case (CH_RENORMALISE)
       list = RENORMALISE_WHEN
+    case (CH_SYMMETRY)
+      list = SYMMETRIES
     case default
       allocate(list(0))
     end select
@@ -456,7 +479,10 @@ contains
     character(len=4 * DIR_LEN_MAX) :: from   ! wider than p%from, as for output.dir
     real(wp) :: h_over_dx, n_ref, h_exponent
     integer :: pack_iterations
-    namelist /particles/ n, placement, h_over_dx, n_ref, h_exponent, pack_iterations, from
+    character(len=NAME_LEN) :: symmetry
+    namelist /particles/ n, placement, h_over_dx, n_ref, h_exponent, pack_iterations, from, &
+                         symmetry
+    symmetry = p%symmetry
     n = p%n
     placement = p%placement
     h_over_dx = p%h_over_dx
@@ -473,6 +499,7 @@ contains
     p%h_exponent = h_exponent
     p%pack_iterations = pack_iterations
     p%from = from(1:len(p%from))
+    p%symmetry = lower(symmetry)
   end subroutine read_particles
 
   subroutine read_physics(text, p, ios, iomsg)
@@ -568,8 +595,9 @@ contains
     character(len=4 * DIR_LEN_MAX) :: dir
     real(wp) :: dt, probes(3, MAX_PROBES)
     integer :: probe_every, n_probes
-    logical :: snapshots, probe_quadratic
-    namelist /output/ dir, dt, probe_every, snapshots, n_probes, probes, probe_quadratic
+    logical :: snapshots, probe_quadratic, mirror
+    namelist /output/ dir, dt, probe_every, snapshots, n_probes, probes, probe_quadratic, mirror
+    mirror = p%mirror
     dir = p%dir
     dt = p%dt
     probe_every = p%probe_every
@@ -586,6 +614,7 @@ contains
     p%snapshots = snapshots
     p%n_probes = n_probes
     p%probes = probes
+    p%mirror = mirror
   end subroutine read_output
 
   subroutine read_parallel(text, p, ios, iomsg)
@@ -646,6 +675,8 @@ contains
       text = real_str(p%h_exponent)
     case ('pack_iterations')
       text = int_str(p%pack_iterations)
+    case ('symmetry')
+      text = quoted(p%symmetry)
     case default
       text = quoted(p%from)
     end select
@@ -734,6 +765,8 @@ contains
       text = logical_text(p%probe_quadratic)
     case ('snapshots')
       text = logical_text(p%snapshots)
+    case ('mirror')
+      text = logical_text(p%mirror)
     case ('n_probes')
       text = int_str(p%n_probes)
     case ('probes')

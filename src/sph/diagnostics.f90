@@ -1,8 +1,13 @@
 !> Global diagnostics of the particle state (doc/theory.md D1, D2, D4),
-!> reduced over all ranks.
+!> reduced over all ranks.  With mirror planes (the optional mask, mirrors)
+!> they are the whole body's: the part's sums times the copies, the
+!> centre of mass on the planes, and the probes summing over the owned
+!> particles and their reflections (never over the halo slots, whose real
+!> copies would count twice).
 module diagnostics
   use kinds, only: wp
   use particles, only: particles_t
+  use mirrors, only: mirror_copies, mirror_codes, reflect
   use kernels, only: kernel_t, kernel_w
   use sym3, only: solve_spd
   use parallel_env, only: parallel_env_t, par_sum, par_sum_array, par_sum_exact
@@ -15,50 +20,83 @@ module diagnostics
 contains
 
   !> (D1) 1/2 Sum m |u|^2
-  function kinetic_energy(env, parts) result(ke)
+  function kinetic_energy(env, parts, mirror) result(ke)
     type(parallel_env_t), intent(in) :: env
     type(particles_t), intent(in) :: parts
+    integer, intent(in), optional :: mirror
     real(wp) :: ke
     integer :: n
     n = parts%n
     ke = par_sum(env, 0.5_wp * sum(parts%m(1:n) * sum(parts%u(:, 1:n)**2, dim=1)))
+    ke = ke * copies(mirror)
   end function kinetic_energy
 
-  function total_mass(env, parts) result(mass)
+  function total_mass(env, parts, mirror) result(mass)
     type(parallel_env_t), intent(in) :: env
     type(particles_t), intent(in) :: parts
+    integer, intent(in), optional :: mirror
     real(wp) :: mass
-    mass = par_sum(env, sum(parts%m(1:parts%n)))
+    mass = par_sum(env, sum(parts%m(1:parts%n))) * copies(mirror)
   end function total_mass
 
-  function total_momentum(env, parts) result(mom)
+  !> The whole body's momentum: 0 along a plane's normal.
+  function total_momentum(env, parts, mirror) result(mom)
     type(parallel_env_t), intent(in) :: env
     type(particles_t), intent(in) :: parts
+    integer, intent(in), optional :: mirror
     real(wp) :: mom(3)
     integer :: k
     do k = 1, 3
       mom(k) = sum(parts%m(1:parts%n) * parts%u(k, 1:parts%n))
     end do
     call par_sum_array(env, mom)
+    mom = mom * copies(mirror)
+    do k = 1, 3
+      if (btest(mask(mirror), k - 1)) mom(k) = 0
+    end do
   end function total_momentum
+
+  !> The copies of the part in the whole body (1 without planes).
+  pure integer function copies(mirror)
+    integer, intent(in), optional :: mirror
+    copies = mirror_copies(mask(mirror))
+  end function copies
+
+  pure integer function mask(mirror)
+    integer, intent(in), optional :: mirror
+    mask = 0
+    if (present(mirror)) mask = mirror
+  end function mask
+
+  !> The reflections a point sums over: 0 (the particle), then the codes.
+  pure function all_codes(mirror) result(codes)
+    integer, intent(in), optional :: mirror
+    integer, allocatable :: codes(:)
+    codes = [0, mirror_codes(mask(mirror))]
+  end function all_codes
 
   !> (D4) Shepard-normalised kernel interpolation of the pressure at a point:
   !> p(x) = Sum_j p_j W(x - x_j) V_j / Sum_j W(x - x_j) V_j.  NaN when no
   !> particle lies within the kernel support of the point.
-  function probe_pressure(env, parts, kernel, point) result(p)
+  function probe_pressure(env, parts, kernel, point, mirror) result(p)
     type(parallel_env_t), intent(in) :: env
     type(particles_t), intent(in) :: parts
     type(kernel_t), intent(in) :: kernel
     real(wp), intent(in) :: point(3)
+    integer, intent(in), optional :: mirror
     real(wp) :: p, sums(2), w, r2, s2
-    integer :: j
+    integer, allocatable :: codes(:)
+    integer :: j, c
     sums = 0
     s2 = kernel%support**2
+    codes = all_codes(mirror)
     do j = 1, parts%n
-      r2 = sum((parts%x(:, j) - point)**2)
-      if (r2 >= s2) cycle
-      w = kernel_w(kernel, sqrt(r2)) * parts%m(j) / parts%rho(j)
-      sums = sums + [w * parts%p(j), w]
+      do c = 1, size(codes)
+        r2 = sum((reflect(parts%x(:, j), codes(c)) - point)**2)
+        if (r2 >= s2) cycle
+        w = kernel_w(kernel, sqrt(r2)) * parts%m(j) / parts%rho(j)
+        sums = sums + [w * parts%p(j), w]
+      end do
     end do
     call par_sum_array(env, sums)
     if (sums(2) > 0) then
@@ -77,27 +115,38 @@ contains
   !> the value is bitwise the same on any number of ranks.  Falls back to D4
   !> where the fit is ill-posed (fewer than 3 (dim + 1) particles, or a
   !> pivot of the normal matrix below 1e-10 of its largest diagonal entry).
-  function probe_pressure_quadratic(env, parts, kernel, point) result(p)
+  function probe_pressure_quadratic(env, parts, kernel, point, mirror) result(p)
     type(parallel_env_t), intent(in) :: env
     type(particles_t), intent(in) :: parts
     type(kernel_t), intent(in) :: kernel
     real(wp), intent(in) :: point(3)
+    integer, intent(in), optional :: mirror
     real(wp) :: p
     real(wp), allocatable :: terms(:, :), sums(:), a(:, :), b(:, :)
-    real(wp) :: phi(10), xi(3), w, r2
-    integer, allocatable :: near(:)
-    integer :: nb, nt, j, k, l, c, m, dim
+    real(wp) :: phi(10), xi(3), w, r2, y(3)
+    integer, allocatable :: near(:), near_code(:), codes(:)
+    integer :: nb, nt, j, k, l, c, m, dim, nn
     dim = parts%dim
     nb = merge(6, 10, dim == 2)              ! 1, xi_a, xi_a xi_b
     nt = nb * (nb + 1) / 2 + nb + 1          ! the normal matrix, the right-hand side, the count
-    near = pack([(j, j = 1, parts%n)], &
-                [(sum((parts%x(:, j) - point)**2) < kernel%support**2, j = 1, parts%n)])
-    allocate(terms(nt, size(near)))
-    do m = 1, size(near)
+    codes = all_codes(mirror)
+    allocate(near(parts%n * size(codes)), near_code(parts%n * size(codes)))
+    nn = 0
+    do j = 1, parts%n
+      do c = 1, size(codes)
+        if (sum((reflect(parts%x(:, j), codes(c)) - point)**2) >= kernel%support**2) cycle
+        nn = nn + 1
+        near(nn) = j
+        near_code(nn) = codes(c)
+      end do
+    end do
+    allocate(terms(nt, nn))
+    do m = 1, nn
       j = near(m)
-      r2 = sum((parts%x(:, j) - point)**2)
+      y = reflect(parts%x(:, j), near_code(m))
+      r2 = sum((y - point)**2)
       w = kernel_w(kernel, sqrt(r2)) * parts%m(j) / parts%rho(j)
-      xi = (parts%x(:, j) - point) / kernel%h
+      xi = (y - point) / kernel%h
       phi(1:nb) = quadratic_basis(dim, xi)
       c = 0
       do k = 1, nb
@@ -111,7 +160,7 @@ contains
     end do
     sums = par_sum_exact(env, terms)
     ! the fallback, on every rank (a collective call)
-    p = probe_pressure(env, parts, kernel, point)
+    p = probe_pressure(env, parts, kernel, point, mirror)
     if (nint(sums(nt)) < 3 * (dim + 1)) return
     allocate(a(nb, nb), b(nb, 1))
     c = 0
@@ -142,11 +191,14 @@ contains
   !> (D2) Semi-axes of the ellipse (ellipsoid) with the particles' second moments
   !> about their centre of mass: a_k = 2 sqrt(<x_k^2>) in 2D, sqrt(5 <x_k^2>)
   !> in 3D (uniform ellipse / ellipsoid).  x is either the particle positions
-  !> or any other per-particle points (e.g. the exact Lagrangian map).
-  function fitted_semi_axes(env, dim, n, m, x) result(axes)
+  !> or any other per-particle points (e.g. the exact Lagrangian map).  With
+  !> planes the moments of the part are the body's, whose centre lies on the
+  !> planes.
+  function fitted_semi_axes(env, dim, n, m, x, mirror) result(axes)
     type(parallel_env_t), intent(in) :: env
     integer, intent(in) :: dim, n
     real(wp), intent(in) :: m(:), x(:, :)
+    integer, intent(in), optional :: mirror
     real(wp) :: axes(3), s(7), c(3)
     integer :: k
     s = 0
@@ -157,6 +209,9 @@ contains
     end do
     call par_sum_array(env, s)
     c = s(2:4) / s(1)
+    do k = 1, 3
+      if (btest(mask(mirror), k - 1)) c(k) = 0
+    end do
     axes = 0
     do k = 1, dim
       axes(k) = sqrt(max(0.0_wp, s(4 + k) / s(1) - c(k)**2) * merge(4.0_wp, 5.0_wp, dim == 2))
@@ -164,10 +219,11 @@ contains
   end function fitted_semi_axes
 
   !> The first particle whose state is not finite or whose density is not
-  !> positive (0 when all are sound), and, when all are sound, nothing else.
-  function find_bad_particle(parts) result(i_bad)
+  !> positive, or that reached a mirror plane (0 when all are sound).
+  function find_bad_particle(parts, mirror) result(i_bad)
     type(particles_t), intent(in) :: parts
-    integer :: i_bad, i
+    integer, intent(in), optional :: mirror
+    integer :: i_bad, i, k
     i_bad = 0
     do i = 1, parts%n
       if (.not. (all(ieee_is_finite(parts%x(:, i))) .and. all(ieee_is_finite(parts%u(:, i))) &
@@ -175,6 +231,12 @@ contains
         i_bad = i
         return
       end if
+      do k = 1, 3
+        if (btest(mask(mirror), k - 1) .and. .not. parts%x(k, i) > 0) then
+          i_bad = i
+          return
+        end if
+      end do
     end do
   end function find_bad_particle
 

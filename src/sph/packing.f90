@@ -206,7 +206,7 @@ contains
     real(wp), allocatable :: grad(:, :), gam(:), inner(:, :)
     real(wp) :: vol, coef, level, sums(2), dmax_abs, r_clip, r, d(3), dn, moved, vmax, t0, h
     integer :: i, it, n, ntot, clipped
-    logical :: new_level
+    logical :: new_level, hit
     t0 = wall_time()
     associate(kern => s%rhs%kernel)
     h = kern%h
@@ -263,18 +263,21 @@ contains
           if (dn > dmax_abs) d = d * (dmax_abs / dn)
           v(:, i) = prm%mu * v(:, i) + d
           x(:, i) = x(:, i) + v(:, i)
+          hit = off_planes(x(:, i), v(:, i))
           r = norm2(x(:, i))
           if (r > r_clip) then
             x(:, i) = x(:, i) * (r_clip / r)
             v(:, i) = 0
-            clipped = clipped + 1
+            hit = .true.
           end if
+          if (off_planes(x(:, i), v(:, i)) .or. hit) clipped = clipped + 1
           vmax = max(vmax, norm2(v(:, i)))
         end do
       end associate
       vmax = par_max(env, vmax)
       ! every particle moved by at most vmax: the radial clip is a projection
-      ! onto the ball, which holds the old position, so it never adds to a move
+      ! onto the ball, the planes' onto half-spaces, each holding the old
+      ! position, so they never add to a move
       moved = moved + vmax
       rep%iterations = it
       rep%last_move = vmax / prm%dx
@@ -284,6 +287,24 @@ contains
     rep%clipped = nint(par_sum(env, real(clipped, wp)))
     s%parts%u = 0
     rep%wall = wall_time() - t0
+
+  contains
+
+    !> A particle below dx/4 of a mirror plane put back there (its image
+    !> would be closer than dx/2), its move along the normal stopped.
+    logical function off_planes(x, v) result(moved_back)
+      real(wp), intent(inout) :: x(3), v(3)
+      integer :: k
+      moved_back = .false.
+      do k = 1, 3
+        if (btest(s%dc%halo%mirror, k - 1) .and. x(k) < 0.25_wp * prm%dx) then
+          x(k) = 0.25_wp * prm%dx
+          v(k) = 0
+          moved_back = .true.
+        end if
+      end do
+    end function off_planes
+
   end subroutine pack_ball
 
 end module packing
