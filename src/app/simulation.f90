@@ -29,10 +29,10 @@ module simulation
   use fileutil, only: make_directory, join_path, rename_file, temp_path, file_exists
   use snapshot_io, only: snapshot_field_t, snapshot_source_t, snapshot_write, &
                          snapshot_filename, xdmf_index_t, xdmf_init
-  use particle_io, only: particles_snapshot_fields
+  use particle_io, only: particles_snapshot_fields, particles_whole_body
   use timeseries, only: timeseries_t, timeseries_init, timeseries_add, timeseries_flush, &
                         timeseries_load
-  use restart, only: restart_read, restart_index_history, snapshot_number, restart_info_t, &
+  use restart, only: ATTR_SYMMETRY, ATTR_COPIES, restart_read, restart_index_history, snapshot_number, restart_info_t, &
                      history_attributes
   use signals, only: signals_install, signals_caught, signal_name
   use domain, only: DECOMP_SLAB, DECOMP_METIS, DECOMP_SFC
@@ -119,7 +119,7 @@ contains
       ! written before it has been read and checked
       w = wall_time()
       call restart_read(env, trim(cfg%run%restart), trim(cfg%run%case_name), dim, s%parts, &
-                        t, step, ok, errmsg, info)
+                        t, step, ok, errmsg, info, mirror=run%problem%mirror)
       write_max = wall_time() - w
       if (ok .and. t >= t_end - tol) then
         ok = .false.
@@ -409,7 +409,7 @@ contains
     dim = s%parts%dim
     radius = problem%pack_radius
     call restart_read(env, trim(cfg%particles%from), trim(cfg%run%case_name), dim, s%parts, &
-                      t, step, ok, errmsg, variable='&particles from')
+                      t, step, ok, errmsg, variable='&particles from', mirror=problem%mirror)
     if (ok) then
       n = s%parts%n
       s%parts%x(:, 1:n) = s%parts%x0(:, 1:n)
@@ -527,10 +527,11 @@ contains
     type(case_flow_t), target :: flow
     type(case_source_t) :: source
     type(snapshot_field_t), allocatable :: extra(:), fields(:)
+    type(particles_t), target :: whole
     character(len=:), allocatable :: errmsg
     character(len=32), allocatable :: names(:)
     real(wp), allocatable :: values(:)
-    integer :: k, nv, ns
+    integer :: k, nv, ns, mask
     ok = .true.
     if (cfg%output%snapshots) then
       ! the step history a restart from this snapshot needs (restart.f90)
@@ -552,17 +553,32 @@ contains
         extra(nv + k)%name = trim(f%scalar_names(k))
         extra(nv + k)%computed = 's'
       end do
-      call particles_snapshot_fields(s%parts, extra, fields)
       source%problem => run%problem
-      source%parts => s%parts
       source%flow => flow
       source%t = t
       if (allocated(f%attr_names)) then
         names = [f%attr_names, names]
         values = [f%attr_values, values]
       end if
+      mask = run%problem%mirror
+      if (cfg%output%mirror) then
+        ! (M3) the whole body: the part, then its reflections
+        call particles_whole_body(s%parts, mask, whole)
+        flow%lambda = [(flow%lambda(1:s%parts%n), k = 1, mirror_copies(mask))]
+        call particles_snapshot_fields(whole, extra, fields)
+        source%parts => whole
+        names = [character(len=32) :: names, ATTR_SYMMETRY, ATTR_COPIES]
+        values = [values, real(mask, wp), real(mirror_copies(mask), wp)]
+      else
+        call particles_snapshot_fields(s%parts, extra, fields)
+        source%parts => s%parts
+        if (mask /= 0) then
+          names = [character(len=32) :: names, ATTR_SYMMETRY, ATTR_COPIES]
+          values = [values, real(mask, wp), 1.0_wp]
+        end if
+      end if
       call snapshot_write(env%comm, join_path(run%dir, snapshot_filename(run%n_snapshots)), &
-                          t, step, s%parts%dim, trim(cfg%run%case_name), s%parts%n, fields, &
+                          t, step, s%parts%dim, trim(cfg%run%case_name), source%parts%n, fields, &
                           ok, errmsg, attr_names=names, attr_values=values, index=run%xdmf, &
                           source=source)
       if (.not. ok) then
@@ -603,6 +619,10 @@ contains
     call history_attributes(restart_info_t(checkpoint=.true., accel_max=h%a_max, &
                                            list_skin=h%skin, force_rebuild=h%force_rebuild, &
                                            snapshots_written=run%n_snapshots), names, values)
+    if (run%problem%mirror /= 0) then
+      names = [character(len=32) :: names, ATTR_SYMMETRY, ATTR_COPIES]
+      values = [values, real(run%problem%mirror, wp), 1.0_wp]
+    end if
     allocate(extra(0))
     call particles_snapshot_fields(s%parts, extra, fields, checkpoint=.true.)
     call snapshot_write(env%comm, join_path(run%dir, CHECKPOINT_FILE), t, step, s%parts%dim, &

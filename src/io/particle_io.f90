@@ -6,9 +6,12 @@ module particle_io
   use particle_fields, only: FIELD_TABLE, SNAPSHOT_FIELDS, RESTART_FIELDS, CHECKPOINT_FIELDS
   use particles, only: particles_t, particles_allocate, particles_field, particles_field_i8
   use snapshot_io, only: snapshot_field_t, snapshot_t, snapshot_get_field
+  use mirrors, only: mirror_codes, mirror_copies, image_id, image_code, reflect_column, &
+                     REFLECT_VECTOR
   implicit none
   private
-  public :: particles_snapshot_fields, particles_from_snapshot, particles_from_checkpoint
+  public :: particles_snapshot_fields, particles_from_snapshot, particles_from_checkpoint, &
+            particles_whole_body, particles_drop_images
 
 contains
 
@@ -123,5 +126,66 @@ contains
       end if
     end do
   end subroutine read_fields
+
+  !> (M3) The whole body of a run with mirror planes (mask): the owned
+  !> particles, then their reflections by each code in ascending order,
+  !> every registered field reflected by its kind (vectors flip the code's
+  !> components, the id becomes the image's, scalars are copied).
+  subroutine particles_whole_body(parts, mask, whole)
+    type(particles_t), intent(in), target :: parts
+    integer, intent(in) :: mask
+    type(particles_t), intent(out), target :: whole
+    integer, allocatable :: codes(:)
+    real(wp), pointer, contiguous :: a(:, :), b(:, :)
+    integer(i8), pointer, contiguous :: ia(:), ib(:)
+    integer :: n, c, f, i, first
+    n = parts%n
+    codes = [0, mirror_codes(mask)]
+    call particles_allocate(whole, parts%dim, max(n * mirror_copies(mask), 1))
+    whole%n = n * mirror_copies(mask)
+    do f = 1, size(FIELD_TABLE)
+      do c = 1, size(codes)
+        first = (c - 1) * n
+        if (FIELD_TABLE(f)%integer8) then
+          ia => particles_field_i8(parts, f)
+          ib => particles_field_i8(whole, f)
+          ib(first + 1:first + n) = image_id(ia(1:n), codes(c))
+        else
+          a => particles_field(parts, f)
+          b => particles_field(whole, f)
+          b(:, first + 1:first + n) = a(:, 1:n)
+          if (FIELD_TABLE(f)%ncomp == 3) then
+            do i = first + 1, first + n
+              call reflect_column(REFLECT_VECTOR, codes(c), b(:, i))
+            end do
+          end if
+        end if
+      end do
+    end do
+  end subroutine particles_whole_body
+
+  !> Keeps the owned particles that are no image (a snapshot written with
+  !> output.mirror holds the part's reflections too), in their order.
+  subroutine particles_drop_images(parts)
+    type(particles_t), intent(inout), target :: parts
+    real(wp), pointer, contiguous :: a(:, :)
+    integer(i8), pointer, contiguous :: ia(:)
+    logical, allocatable :: keep(:)
+    integer :: f, n, nk
+    n = parts%n
+    keep = image_code(parts%id(1:n)) == 0
+    nk = count(keep)
+    if (nk == n) return
+    do f = 1, size(FIELD_TABLE)
+      if (FIELD_TABLE(f)%integer8) then
+        ia => particles_field_i8(parts, f)
+        ia(1:nk) = pack(ia(1:n), keep)
+      else
+        a => particles_field(parts, f)
+        a(:, 1:nk) = reshape(pack(a(:, 1:n), spread(keep, 1, size(a, 1))), [size(a, 1), nk])
+      end if
+    end do
+    parts%n = nk
+  end subroutine particles_drop_images
 
 end module particle_io

@@ -6,7 +6,9 @@
 module restart
   use kinds, only: wp, i8
   use particles, only: particles_t
-  use particle_io, only: particles_from_snapshot, particles_from_checkpoint
+  use particle_io, only: particles_from_snapshot, particles_from_checkpoint, &
+                         particles_drop_images
+  use mirrors, only: mirror_word
   use parallel_env, only: parallel_env_t
   use fileutil, only: join_path, file_exists, base_name
   use snapshot_io, only: snapshot_t, snapshot_read, snapshot_filename, xdmf_index_t, xdmf_add
@@ -23,6 +25,10 @@ module restart
                                  ATTR_LIST_SKIN = 'history_list_skin', &
                                  ATTR_FORCE_REBUILD = 'history_force_rebuild', &
                                  ATTR_SNAPSHOTS = 'history_snapshots_written'
+  !> the mirror planes' mask of the run and the copies of the part the
+  !> file holds (1: the part; 2^planes: the whole body, output.mirror)
+  character(len=*), parameter, public :: ATTR_SYMMETRY = 'symmetry_mask', &
+                                         ATTR_COPIES = 'mirror_copies'
 
   !> What a snapshot or a checkpoint says of the steps before it.
   type :: restart_info_t
@@ -45,7 +51,9 @@ contains
   !> neighbour list too, and info what else the run carried.  The messages
   !> name the input variable that gave path: `variable`, by default
   !> '&run restart' ('&particles from' for packed particles).
-  subroutine restart_read(env, path, case_name, dim, parts, t, step, ok, errmsg, info, variable)
+  !> mirror: the run's planes (mask); the file's must be the same.
+  subroutine restart_read(env, path, case_name, dim, parts, t, step, ok, errmsg, info, variable, &
+                          mirror)
     type(parallel_env_t), intent(in) :: env
     character(len=*), intent(in) :: path, case_name
     integer, intent(in) :: dim
@@ -56,11 +64,12 @@ contains
     character(len=:), allocatable, intent(out) :: errmsg
     type(restart_info_t), intent(out), optional :: info
     character(len=*), intent(in), optional :: variable
+    integer, intent(in), optional :: mirror
     type(snapshot_t) :: snap
     type(restart_info_t) :: inf
     character(len=:), allocatable :: missing
     character(len=:), allocatable :: name
-    integer :: k
+    integer :: k, file_mask, run_mask, copies
     t = 0
     step = 0
     name = '&run restart'
@@ -83,8 +92,14 @@ contains
       return
     end if
     ! the step history, when the file has it
+    file_mask = 0
+    copies = 1
     do k = 1, size(snap%attr_names)
       select case (trim(snap%attr_names(k)))
+      case (ATTR_SYMMETRY)
+        file_mask = nint(snap%attr_values(k))
+      case (ATTR_COPIES)
+        copies = nint(snap%attr_values(k))
       case (ATTR_ACCEL_MAX)
         inf%has_accel = .true.
         inf%accel_max = snap%attr_values(k)
@@ -97,6 +112,17 @@ contains
         inf%snapshots_written = nint(snap%attr_values(k))
       end select
     end do
+    run_mask = 0
+    if (present(mirror)) run_mask = mirror
+    if (file_mask /= run_mask) then
+      ok = .false.
+      errmsg = name // ' = ''' // path // ''' was written with particles.symmetry = ''' // &
+               mirror_word(file_mask) // ''': it cannot serve a run with symmetry = ''' // &
+               mirror_word(run_mask) // ''''
+      return
+    end if
+    ! a whole-body snapshot (output.mirror): the part is the rows of no image
+    if (copies > 1) call particles_drop_images(parts)
     if (inf%checkpoint) then
       call particles_from_checkpoint(snap, dim, parts, ok, missing)
       if (.not. ok) then
