@@ -272,6 +272,45 @@ def read_timeseries(path):
     return {name: arr[:, k] for k, name in enumerate(header)}
 
 
+IMAGE_ID_STRIDE = 2 ** 32
+
+
+def mirror_mask(word):
+    """The mask of particles.symmetry (x: 1, y: 2, z: 4; 'none': 0)."""
+    if word in ("", "none"):
+        return 0
+    return sum(1 << "xyz".index(c) for c in set(word))
+
+
+def mirror_copies(mask):
+    return 2 ** bin(mask).count("1")
+
+
+def unfold_mirrors(fields, mask):
+    """The whole body from the part of a run with mirror planes (M3): the
+    part, then its reflection by each nonzero submask (code) of mask in
+    ascending order, as the solver's output.mirror writes it: vectors
+    (N, dim) flip the code's columns, ids become id + code 2^32, the 2D
+    vorticity (a pseudo-scalar) takes the sign s_x s_y, scalars are copied."""
+    codes = [0] + [c for c in range(1, 8) if c & mask == c]
+    out = {}
+    for name, a in fields.items():
+        blocks = []
+        for c in codes:
+            b = np.array(a, copy=True)
+            if name == "id":
+                b = b + np.int64(c) * IMAGE_ID_STRIDE
+            elif b.ndim == 2:
+                for k in range(b.shape[1]):
+                    if c >> k & 1:
+                        b[:, k] = -b[:, k]
+            elif name == "vorticity" and bin(c & 3).count("1") == 1:
+                b = -b
+            blocks.append(b)
+        out[name] = np.concatenate(blocks)
+    return out
+
+
 class Run:
     """An sph run directory: its input, time series and snapshots.
 
@@ -322,14 +361,31 @@ class Run:
 
     def snapshot(self, index):
         """Snapshot `index` (negative counts from the end) as a dict of arrays
-        sorted by particle id, plus 'attrs'."""
+        sorted by particle id, plus 'attrs'.  A run with mirror planes
+        (particles.symmetry) is given as the whole body: a snapshot of the
+        part is unfolded by its reflections (doc/symmetry.md, M3)."""
         import h5py
         path = self.snapshots[index]
         with h5py.File(path, "r") as f:
-            order = np.argsort(f["id"][:])
-            out = {k: f[k][:][order] for k in f if k != "connectivity"}
-        out["attrs"] = self.snapshot_attrs(path)
+            out = {k: f[k][:] for k in f if k != "connectivity"}
+        attrs = self.snapshot_attrs(path)
+        mask = int(round(float(attrs.get("symmetry_mask", 0))))
+        if mask and int(round(float(attrs.get("mirror_copies", 1)))) == 1:
+            out = unfold_mirrors(out, mask)
+        order = np.argsort(out["id"])
+        out = {k: v[order] for k, v in out.items()}
+        out["attrs"] = attrs
         return out
+
+    @property
+    def mirror(self):
+        """The mirror planes' mask of the run (0: none), from its snapshots'
+        symmetry_mask or its input's particles.symmetry."""
+        if self.snapshots:
+            a = self.snapshot_attrs(self.snapshots[0])
+            return int(round(float(a.get("symmetry_mask", 0))))
+        word = str(self.nml.get("particles", {}).get("symmetry", "none")).strip().lower()
+        return mirror_mask(word)
 
     def window(self, until):
         """Cuts the time series at t rate = until (in the case's flow time,
@@ -363,9 +419,14 @@ class Run:
     def n_particles(self):
         if self._n is None:
             if self.snapshots:
+                # the whole body's count: a run with mirror planes writes
+                # the part (mirror_copies 1) or the whole body
                 import h5py
+                a = self.snapshot_attrs(self.snapshots[0])
+                mask = int(round(float(a.get("symmetry_mask", 0))))
+                held = int(round(float(a.get("mirror_copies", 1))))
                 with h5py.File(self.snapshots[0], "r") as f:
-                    self._n = int(f["position"].shape[0])
+                    self._n = int(f["position"].shape[0]) * mirror_copies(mask) // held
             else:
                 self._n = int(self.nml.get("particles", {}).get("n", 0))
         return self._n
