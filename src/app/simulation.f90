@@ -32,8 +32,8 @@ module simulation
   use particle_io, only: particles_snapshot_fields, particles_whole_body
   use timeseries, only: timeseries_t, timeseries_init, timeseries_add, timeseries_flush, &
                         timeseries_load
-  use restart, only: ATTR_SYMMETRY, ATTR_COPIES, restart_read, restart_index_history, snapshot_number, restart_info_t, &
-                     history_attributes
+  use restart, only: restart_read, restart_index_history, snapshot_number, restart_info_t, &
+                     history_attributes, ATTR_SYMMETRY, ATTR_COPIES
   use signals, only: signals_install, signals_caught, signal_name
   use domain, only: DECOMP_SLAB, DECOMP_METIS, DECOMP_SFC
   use packing, only: packing_params_t, packing_report_t, pack_ball

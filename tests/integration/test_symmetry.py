@@ -1,0 +1,167 @@
+"""Mirror planes (particles.symmetry, doc/symmetry.md): the part of a
+symmetric body with the images of the particles near the planes.
+
+On a lattice the part and the whole body are the same discrete problem, so a
+quadrant (octant) run must be the full run to round-off, particle by
+particle.  With planes the results stay bitwise independent of the number of
+ranks and the decomposition, and across restarts from snapshots (of the
+part, or of the whole body written by output.mirror) and checkpoints.  Bad
+combinations are refused before anything is written."""
+import os
+import signal
+import sys
+
+import h5py
+import numpy as np
+import pytest
+
+import test_operations as ops
+from common import ROOT, run_sph
+
+sys.path.insert(0, str(ROOT / "postproc"))
+from sphpost.core import Run  # noqa: E402
+
+FIELDS = ("position", "velocity", "density", "pressure", "free_surface_lambda")
+
+
+def by_start(run):
+    """The last snapshot of a run, the whole body (postproc unfolds a part),
+    ordered by the initial positions (the lattice points are exact: the part's
+    reflections are bitwise the full lattice's points)."""
+    s = Run(run).snapshot(-1)
+    x0 = s["position_initial"]
+    order = np.lexsort(tuple(x0[:, k] for k in reversed(range(x0.shape[1]))))
+    return {k: s[k][order] for k in FIELDS + ("position_initial",)}
+
+
+def final_by_id(d):
+    with h5py.File(sorted(d.glob("snap_*.h5"))[-1], "r") as h:
+        order = np.argsort(h["id"][:])
+        return {k: h[k][:][order] for k in FIELDS}, float(h.attrs["time"])
+
+
+def assert_bitwise(a, b, tag):
+    for k in FIELDS:
+        assert np.array_equal(a[k].view(np.int64), b[k].view(np.int64)), (tag, k)
+
+
+@pytest.mark.parametrize("case,n,planes,ranks", [
+    ("circle2d", 5000, "xy", 1), ("circle2d", 5000, "y", 2), ("ellipsoid3d", 4000, "xyz", 2)])
+def test_part_on_a_lattice_is_the_full_run(scratch, case, n, planes, ranks):
+    # the same lattice, the same scheme (the input file's): 0.2 / 0.1 time
+    # units, 38 / 27 steps.  Measured: the largest difference of any field
+    # 1.0e-13 (pressure, circle2d quadrant), 3e-15 elsewhere; bound 1e-11
+    common = [f"input/{case}.nml", f"particles.n={n}", "particles.placement=lattice",
+              "run.t_end=0.2" if case == "circle2d" else "run.t_end=0.1", "output.dt=0.1"]
+    full = scratch(f"sym_full_{case}") / "run"
+    part = scratch(f"sym_{planes}_{case}") / "run"
+    p = run_sph(common + [f"output.dir={full}"], np=1)
+    assert p.returncode == 0, p.out
+    p = run_sph(common + [f"output.dir={part}", f"particles.symmetry={planes}"], np=ranks)
+    assert p.returncode == 0, p.out
+    a, b = by_start(full), by_start(part)
+    assert len(a["position"]) == len(b["position"]) == Run(part).n_particles
+    assert np.array_equal(a["position_initial"], b["position_initial"])
+    for k in FIELDS:
+        diff = float(np.max(np.abs(a[k] - b[k])))
+        assert diff < 1e-11, (k, diff)
+    # the solver's whole-body diagnostics: the same time series
+    ta, tb = Run(full).ts, Run(part).ts
+    assert np.array_equal(ta["time"], tb["time"])
+    for k in ("kinetic_energy", "mass", "p_probe_1", "rms_velocity_error", "semi_axis_1"):
+        assert np.allclose(ta[k], tb[k], rtol=1e-11, atol=1e-13), k
+
+
+@pytest.mark.parametrize("extra,ranks", [([], 2), (["parallel.decomposition=metis"], 3),
+                                         (["parallel.decomposition=sfc"], 2)])
+def test_octant_bitwise_at_any_rank_count(scratch, extra, ranks):
+    # ellipsoid3d as the input file has it (packed), on the octant: packing,
+    # images and all, the same bits at 1 rank and at 2 or 3 with each
+    # decomposition
+    common = ["input/ellipsoid3d.nml", "particles.n=8000", "particles.symmetry=xyz",
+              "run.t_end=0.1", "output.dt=0.1"]
+    d1 = scratch("oct1") / "run"
+    d2 = scratch(f"oct{ranks}") / "run"
+    p = run_sph(common + [f"output.dir={d1}"], np=1)
+    assert p.returncode == 0, p.out
+    p = run_sph(common + [f"output.dir={d2}"] + extra, np=ranks)
+    assert p.returncode == 0, p.out
+    (a, ta), (b, tb) = final_by_id(d1), final_by_id(d2)
+    assert ta == tb
+    assert_bitwise(a, b, extra)
+    # no particle on or across a plane, about an eighth of the body
+    assert np.min(a["position"]) > 0
+    assert 900 < len(a["position"]) < 1100
+
+
+QUAD = ["input/circle2d.nml", "particles.n=4000", "particles.symmetry=xy", "output.dt=0.5",
+        "run.progress_interval=0.2"]
+
+
+@pytest.fixture(scope="module")
+def quadrant(scratch):
+    """The quadrant run never stopped, on one rank, to t A0 = 2."""
+    d = scratch("sym_ref") / "run"
+    p = run_sph(QUAD + [f"output.dir={d}"])
+    assert p.returncode == 0, p.out
+    return d
+
+
+def test_restart_from_part_and_whole_body_snapshots(scratch, quadrant):
+    whole = scratch("sym_whole") / "run"
+    p = run_sph(QUAD + [f"output.dir={whole}", "output.mirror=.true."], np=2)
+    assert p.returncode == 0, p.out
+    with h5py.File(whole / "snap_00001.h5", "r") as h, \
+            h5py.File(quadrant / "snap_00001.h5", "r") as q:
+        assert h["position"].shape[0] == 4 * q["position"].shape[0]
+        assert h.attrs["mirror_copies"] == 4 and q.attrs["mirror_copies"] == 1
+        assert h.attrs["symmetry_mask"] == q.attrs["symmetry_mask"] == 3
+    ref, t_ref = final_by_id(quadrant)
+    for src, ranks in ((quadrant / "snap_00001.h5", 2), (whole / "snap_00001.h5", 3)):
+        d = scratch("sym_restart") / "run"
+        p = run_sph(QUAD + [f"output.dir={d}", f"run.restart={src}"], np=ranks)
+        assert p.returncode == 0, p.out
+        got, t = final_by_id(d)
+        assert t == t_ref
+        assert_bitwise(ref, got, src)
+
+
+def test_checkpoint_continues_bitwise(scratch, quadrant):
+    d = scratch("sym_ckpt") / "run"
+    p = ops.start(QUAD + [f"output.dir={d}"], 2)
+    lines = ops.wait_for_steps(p)
+    for pid in ops.children(p.pid):
+        os.kill(pid, signal.SIGTERM)
+    out = "".join(lines) + p.stdout.read()
+    cmd = ops.check_stopped(out, p.wait(), d, "SIGTERM")
+    with h5py.File(d / "checkpoint.h5", "r") as h:
+        assert h.attrs["symmetry_mask"] == 3 and h.attrs["mirror_copies"] == 1
+    ops.check_continued(cmd, d, quadrant)
+
+
+@pytest.mark.parametrize("args,variable", [
+    (["input/square_rotation.nml", "particles.symmetry=x"], "&particles symmetry"),
+    (["input/square_vortical.nml", "particles.symmetry=xy"], "&particles symmetry"),
+    (["input/circle2d.nml", "particles.symmetry=z"], "&particles symmetry"),
+    (["input/circle2d.nml", "particles.symmetry=xx"], "&particles symmetry"),
+    (["input/circle2d.nml", "particles.symmetry=x", "particles.placement=rings"],
+     "placement = 'rings'"),
+    (["input/ellipsoid3d.nml", "particles.symmetry=xyz", "numerics.shifting=.true."],
+     "numerics.shifting"),
+    (["input/circle2d.nml", "output.mirror=.true."], "&output mirror"),
+])
+def test_bad_planes_refused_before_anything_is_written(scratch, args, variable):
+    d = scratch("sym_bad") / "never"
+    p = run_sph(args + [f"output.dir={d}"])
+    assert p.returncode == 2, p.out
+    assert variable in p.out, p.out
+    assert not d.exists()
+
+
+def test_restart_with_other_planes_refused(scratch, quadrant):
+    d = scratch("sym_other") / "never"
+    p = run_sph(["input/circle2d.nml", "particles.n=4000", f"output.dir={d}",
+                 f"run.restart={quadrant / 'snap_00001.h5'}"])
+    assert p.returncode == 2, p.out
+    assert "&run restart" in p.out and "symmetry = 'xy'" in p.out, p.out
+    assert not d.exists()
