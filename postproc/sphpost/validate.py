@@ -349,11 +349,19 @@ def analyse_square(jobs, doc, case):
 
 def reference_levels(root, case):
     """The analysed reference runs of a case under root (postproc/reference's
-    layout root/CASE/level_N), coarsest first."""
+    layout root/CASE/level_N), coarsest first.
+
+    A level that ended early (a run stopped before the case's end, e.g. a
+    finer level tried over the first part only) is left out, so that it
+    never becomes the finest level of the whole comparison: the levels kept
+    reach the longest run's end within 1 %."""
     from . import reference
     dirs = glob.glob(os.path.join(root, case, "level_*"))
     refs = [reference.Reference(d) for d in dirs
             if os.path.isfile(os.path.join(d, "summary.json"))]
+    if refs:
+        end = max(r.pressure["t"][-1] for r in refs)
+        refs = [r for r in refs if r.pressure["t"][-1] >= 0.99 * end]
     return sorted(refs, key=lambda r: r.setup.level)
 
 

@@ -263,3 +263,16 @@ def test_figure_3_of_a_foreign_run_with_the_reference_interface(tmp_path):
                    lambda t: 1 / 12 + 0 * t)
     c = ref.compare(str(tmp_path / "run"), str(tmp_path / "short"), echo=lambda m: None)
     assert c["interface"] == {} and c["p_interval_end"] == 0.5
+
+
+def test_a_level_that_ended_early_is_not_the_finest(tmp_path):
+    # levels 8 and 9 to t omega = 4 and a level 10 stopped at 1.5 (a finer
+    # level tried over the first part): validate compares with level 9
+    from sphpost import validate
+    for level, t_end in ((8, 4.0), (9, 4.0), (10, 1.5)):
+        s = ref.Setup("square_rotation", 1.0, 1.0, 1.0, t_end, level=level)
+        d = tmp_path / "square_rotation" / f"level_{level}"
+        d.parent.mkdir(exist_ok=True)
+        fake_reference(d, s, lambda t: -0.147343 + 0.03 * t, lambda t: (1 / 12) * (1 - 0.01 * t))
+    levels = [r.setup.level for r in validate.reference_levels(str(tmp_path), "square_rotation")]
+    assert levels == [8, 9]
