@@ -728,6 +728,7 @@ contains
     real(wp), intent(in) :: dx, dt
     real(wp) :: listed, in_range
     integer(i8) :: n_listed, n_in_range
+    integer :: leaving
     call neighbour_counts(s%lm%nl, s%parts%n, s%parts%x, s%rhs%kernel%support**2, n_listed, &
                           n_in_range)
     listed = par_sum(env, real(n_listed, wp)) / max(run%n_global, 1_i8)
@@ -737,6 +738,11 @@ contains
     write(output_unit, '(a,i0,a,i0,a,es10.3,a,es10.3,a,f5.2,a)') '  particles ', run%n_global, &
       '  dim ', s%parts%dim, '  dx ', dx, '  h ', s%rhs%kernel%h, '  (h/dx ', &
       cfg%particles%h_over_dx, ')'
+    leaving = iand(run%problem%mirror, run%problem%leaving_planes())
+    if (leaving /= 0) write(output_unit, '(a)') 'sph: warning: the flow leaves the mirror ' // &
+      'plane(s) ' // mirror_word(leaving) // ' (stretching along the normal): a mirror-' // &
+      'symmetric particle arrangement does not refill them, and the errors near them grow ' // &
+      '(doc/symmetry.md, "What the planes cost in accuracy")'
     write(output_unit, '(a,f8.2,a,f6.4,a,f8.1,a,f8.1,a)') '  c0 ', s%rhs%c0, '  Mach ', &
       s%umax / s%rhs%c0, '  neighbours per particle ', in_range, ' (', listed, ' in the list)'
     write(output_unit, '(a)') '  kernel ' // trim(cfg%numerics%kernel) // ', integrator ' // &
@@ -788,12 +794,12 @@ contains
     integer, intent(in) :: steps
     real(wp), intent(in) :: wall
     real(wp) :: comm, mem_max, mem_total, listed, in_range, halo, partners, partners_max, &
-                words, words_max, messages, pairs, t(5), rate
+                words, words_max, messages, pairs, t(5), rate, across, images
     integer(i8) :: n_listed, n_in_range
     integer :: k
     comm = par_max(env, s%dc%comm_time)
     ! what the decomposition costs in copies and messages (doc/parallel.md)
-    halo = par_sum(env, real(s%parts%n_halo, wp)) / max(run%n_global, 1_i8)
+    halo = par_sum(env, real(s%parts%n_halo - s%dc%halo%n_images, wp)) / max(run%n_global, 1_i8)
     partners = par_sum(env, real(decomp_partners(s%dc), wp)) / env%nranks
     partners_max = par_max(env, real(decomp_partners(s%dc), wp))
     words = par_sum(env, s%dc%words_sent) / env%nranks
@@ -814,6 +820,8 @@ contains
                           n_in_range)
     listed = par_sum(env, real(n_listed, wp)) / max(run%n_global, 1_i8)
     in_range = par_sum(env, real(n_in_range, wp)) / max(run%n_global, 1_i8)
+    across = par_sum(env, real(s%n_across, wp))
+    images = par_sum(env, real(s%dc%halo%n_images, wp)) / max(run%n_global, 1_i8)
     if (env%rank /= 0) return
     write(output_unit, '(a,i0,a,f10.2,a,es10.3,a,es10.3,a,i0,a)') 'done: ', steps, ' steps in ', &
       wall, ' s, ', wall / max(steps, 1), ' s/step, ', &
@@ -825,6 +833,10 @@ contains
       ' h), peak memory ', mem_max, ' MB per rank (max), ', mem_total, ' MB in all'
     write(output_unit, '(a,f8.1,a,f8.1,a)') '  neighbours per particle: ', listed, &
       ' in the list, ', in_range, ' within the kernel support'
+    if (run%problem%mirror /= 0) write(output_unit, '(a,f8.4,a,i0,a)') &
+      '  mirror planes ' // mirror_word(run%problem%mirror) // ': ', images, &
+      ' images per particle (at the last list build); ', nint(across, i8), &
+      ' times a particle traded places with its image (M4)'
     write(output_unit, '(a,5(f5.1,a),es10.3,a)') '  time (largest rank): pair passes ', &
       100 * t(1), ' %, list rebuilds ', 100 * t(2), ' %, validity test ', 100 * t(3), &
       ' %, communication ', 100 * t(4), ' %, integration ', 100 * t(5), ' %; ', rate, &

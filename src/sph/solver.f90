@@ -5,7 +5,7 @@
 !> domain decomposition in decomposition, the integrators (T1, T2) in
 !> integrators.
 module solver
-  use kinds, only: wp
+  use kinds, only: wp, i8
   use particles, only: particles_t, particles_permute
   use neighbours, only: cell_sort_permutation
   use list_manager, only: list_manager_t, list_radius, list_check, list_build, list_pair_work, &
@@ -78,6 +78,8 @@ module solver
     real(wp), allocatable :: dr(:, :)
     real(wp) :: shift_max = 0
     integer :: n_evaluations = 0
+    !> (M4) particles that traded places with their mirror image
+    integer(i8) :: n_across = 0
     real(wp) :: umax = 0, amax = 0     !< global maxima at the start of the last step
     real(wp) :: a_local = 0            !< this rank's largest |du| of the last right-hand side
     real(wp) :: dt_cfl = 0, dt_force = 0, dt_visc = 0, dt_diff = 0  !< the limits of the last step
@@ -432,8 +434,32 @@ contains
       s%timing%integrate = s%timing%integrate + (wall_time() - t0)
     end do
     s%parts%p(1:n) = eos_pressure(s%eos, s%parts%rho(1:n))
+    if (s%lm%mirror /= 0) call take_images_across(s%parts, n, s%lm%mirror, s%n_across)
     if (s%shifting) call shift_particles(s, env, dt)
   end subroutine solver_step
+
+  !> (M4) A particle that crossed a mirror plane in the step (it and its
+  !> image passed through each other) trades places with its image, which is
+  !> on the part's side: the whole body is the same set of particles, only
+  !> relabelled.  Its initial position is reflected with it, so that the
+  !> Lagrangian map stays its own.
+  subroutine take_images_across(parts, n, mask, count)
+    type(particles_t), intent(inout) :: parts
+    integer, intent(in) :: n, mask
+    integer(i8), intent(inout) :: count     !< trades so far, on this rank
+    integer :: i, k
+    do k = 1, 3
+      if (.not. btest(mask, k - 1)) cycle
+      do i = 1, n
+        if (parts%x(k, i) < 0) then
+          parts%x(k, i) = -parts%x(k, i)
+          parts%u(k, i) = -parts%u(k, i)
+          parts%x0(k, i) = -parts%x0(k, i)
+          count = count + 1
+        end if
+      end do
+    end do
+  end subroutine take_images_across
 
   !> (E8) Particle shifting after a step of dt: the halo copies are brought
   !> to the end of the step, then every owned particle moves by

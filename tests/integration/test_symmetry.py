@@ -59,6 +59,9 @@ def test_part_on_a_lattice_is_the_full_run(scratch, case, n, planes, ranks):
     assert p.returncode == 0, p.out
     p = run_sph(common + [f"output.dir={part}", f"particles.symmetry={planes}"], np=ranks)
     assert p.returncode == 0, p.out
+    # the planes the flow leaves (alpha_k > 0: y in 2D, z in 3D) are named
+    leaving = "z" if case == "ellipsoid3d" else "y"
+    assert f"sph: warning: the flow leaves the mirror plane(s) {leaving} " in p.out, p.out
     a, b = by_start(full), by_start(part)
     assert len(a["position"]) == len(b["position"]) == Run(part).n_particles
     assert np.array_equal(a["position_initial"], b["position_initial"])
@@ -165,3 +168,13 @@ def test_restart_with_other_planes_refused(scratch, quadrant):
     assert p.returncode == 2, p.out
     assert "&run restart" in p.out and "symmetry = 'xy'" in p.out, p.out
     assert not d.exists()
+
+
+def test_no_warning_for_a_plane_the_flow_approaches(scratch):
+    # circle2d compresses along x (alpha_x = -1): the plane x = 0 is one the
+    # flow approaches, and the quadrant's errors are the full run's there
+    d = scratch("sym_x") / "run"
+    p = run_sph(["input/circle2d.nml", "particles.n=2000", "particles.symmetry=x",
+                 "run.t_end=0.01", f"output.dir={d}"])
+    assert p.returncode == 0, p.out
+    assert "warning: the flow leaves" not in p.out
