@@ -438,16 +438,28 @@ def load_setup(ref_dir):
     return Setup(**json.loads(m.group(1)))
 
 
-def analyse(ref_dir, echo=print, wall=None):
-    """Turns a finished Gerris run into the CSV files and summary.json."""
+def analyse(ref_dir, echo=print, wall=None, partial=False):
+    """Turns a finished Gerris run into the CSV files and summary.json.  With
+    partial, a run still going (or stopped early) is analysed up to its last
+    output time on the DT_OUT grid, less one output (its newest files may be
+    half written): the series end there, the interfaces and cavity scans
+    after it are left out, and the summary's partial_until says where."""
     s = load_setup(ref_dir)
     tu, pu = s.time_unit, s.p_unit
     t_end = s.t_end
+    tl = "t omega" if s.case == "square_rotation" else "t V0/L"
     probe = _columns(os.path.join(ref_dir, "probe.dat"))
     far = _columns(os.path.join(ref_dir, "far.dat"))
-    if probe["t"][-1] < s.t_end * tu * (1 - 1e-9):
+    if partial:
+        last = min(probe["t"][-1], far["t"][-1]) / tu
+        t_end = min(s.t_end, math.floor(last / DT_OUT + 1e-9) * DT_OUT - DT_OUT)
+        if t_end < 2 * DT_OUT:
+            raise sp.PostprocError(f"{ref_dir}: the Gerris run has not reached "
+                                   f"{tl} = {3 * DT_OUT:g} yet")
+    elif probe["t"][-1] < s.t_end * tu * (1 - 1e-9):
         raise sp.PostprocError(f"{ref_dir}: the Gerris run ends at t = {probe['t'][-1]:g}, "
-                               f"before t_end = {s.t_end * tu:g}")
+                               f"before t_end = {s.t_end * tu:g} (postproc/reference analyse "
+                               "--partial analyses it as far as it went)")
     tg = probe["t"]
 
     def tabulated(p_ambient):
@@ -490,7 +502,7 @@ def analyse(ref_dir, echo=print, wall=None):
         scans = []
         for name in os.listdir(ref_dir):
             m = re.match(r"scan-(.*)\.txt$", name)
-            if m:
+            if m and float(m.group(1)) <= t_end * tu * (1 + 1e-9):
                 scans.append((float(m.group(1)), os.path.join(ref_dir, name)))
         rows = []
         for tk, path in sorted(scans):
@@ -520,6 +532,8 @@ def analyse(ref_dir, echo=print, wall=None):
         "interfaces": interfaces,
         "first_cavity": first_cavity,
     }
+    if t_end < s.t_end:
+        summary["partial_until"] = t_end
     if wall is not None:
         summary["wall_time_s"] = wall
     else:
@@ -534,7 +548,9 @@ def analyse(ref_dir, echo=print, wall=None):
         json.dump(summary, f, indent=1)
     os.replace(tmp, os.path.join(ref_dir, "summary.json"))
     echo(f"{s.case} reference, level {s.level} ({1 / s.dx:g} cells per L), {steps} steps"
-         + (f", {summary['wall_time_s']:.0f} s" if "wall_time_s" in summary else ""))
+         + (f", {summary['wall_time_s']:.0f} s" if "wall_time_s" in summary else "")
+         + (f"; partial: to {tl} = {t_end:g} of {s.t_end:g}" if t_end < s.t_end
+            else ""))
     echo(f"  initial probe pressure {p0:.6f} (series {SERIES_P0[s.case]:.6f}: "
          f"{100 * summary['p_probe_initial_error']:+.3f} %)")
     echo(f"  area drift at most {100 * summary['area_drift_max']:.4f} %, kinetic energy "
@@ -941,6 +957,9 @@ def command(argv, prog="postproc/reference"):
                    "runs/reference/CASE/level_N)")
     a = sub.add_parser("analyse", help="analyse a finished Gerris run again")
     a.add_argument("dir")
+    a.add_argument("--partial", action="store_true",
+                   help="a run still going or stopped early: analyse it up to its last "
+                   "output (the summary's partial_until)")
     st = sub.add_parser("study", help="the reference's resolution study (markdown)")
     st.add_argument("dirs", nargs="+", help="reference run directories of one case")
     st.add_argument("--json", help="also write the numbers to this file")
@@ -966,7 +985,7 @@ def command(argv, prog="postproc/reference"):
         wall = run_gerris(s, out, echo=lambda m: print(m, flush=True))
         analyse(out, wall=wall)
     elif args.verb == "analyse":
-        analyse(args.dir)
+        analyse(args.dir, partial=args.partial)
     elif args.verb == "plot":
         figure(args.runs, args.ref, args.output, args.labels)
     elif args.verb in ("study", "compare"):

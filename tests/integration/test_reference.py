@@ -160,6 +160,17 @@ def test_a_short_gerris_run_starts_from_the_series_pressure(tmp_path, case, t_en
     assert r.summary["area_drift_max"] < 1e-3
     assert r.pressure["t"][0] == 0 and abs(r.pressure["t"][-1] - t_end) < 1e-9
     assert np.all(np.isfinite(r.pressure["p"]))
+    # the same run as if it were still going towards a later end: analyse
+    # refuses it, --partial analyses it up to its last output less one
+    gfs = out / "sim.gfs"
+    first, rest = gfs.read_text().split("\n", 1)
+    gfs.write_text(first.replace(f'"t_end": {t_end}', '"t_end": 2.0') + "\n" + rest)
+    with pytest.raises(sp.PostprocError, match="--partial"):
+        ref.analyse(str(out), echo=lambda m: None)
+    summary = ref.analyse(str(out), echo=lambda m: None, partial=True)
+    assert abs(summary["partial_until"] - (t_end - 0.01)) < 1e-9, summary
+    r = ref.Reference(str(out))
+    assert abs(r.pressure["t"][-1] - (t_end - 0.01)) < 1e-9
 
 
 def fake_reference(path, s, p, ke):
