@@ -616,6 +616,8 @@ class Reference:
             self.summary = json.load(f)
         self.pressure = read_csv(os.path.join(path, "pressure.csv"))
         self.integrals = read_csv(os.path.join(path, "integrals.csv"))
+        # where its analysis ends: the case's end, or a partial run's last output
+        self.t_end = self.summary.get("partial_until", self.setup.t_end)
 
     def interface(self, t):
         return read_interface(os.path.join(self.path, f"interface_{t:g}.csv"))
@@ -687,11 +689,11 @@ def study(dirs, echo=print):
         rows.append({"level": r.setup.level, "summary": sm})
     times = INTERFACE_TIMES[case]
     echo(f"\nBetween successive levels: the probe pressure's mean and largest difference "
-         f"over {tl} in [0, {refs[0].setup.t_end:g}] where both probes are in the dense phase "
+         f"over {tl} in [0, {refs[0].t_end:g}] where both probes are in the dense phase "
          f"(of |p(0)|), the interfaces' mean "
          f"distance (in L) at {tl} = {', '.join(f'{t:g}' for t in times)}, and the "
          "first cavity's time:\n")
-    wins = [w for w in WINDOWS[case] if w < refs[0].setup.t_end]
+    wins = [w for w in WINDOWS[case] if w < min(r.t_end for r in refs)]
     echo("| levels | p mean | p max | " + "".join(f"p mean to {w:g} | " for w in wins)
          + " | ".join(f"interface {t:g}" for t in times) + " | cavity time |")
     echo("|---|---|---|" + "---|" * (len(times) + len(wins)) + "---|")
@@ -825,7 +827,7 @@ def compare(run_dir, ref_dir, echo=print, fc=None, transition=sp.DEFAULT_TRANSIT
     stimes = run.snapshot_times() / tu
     out["interface"] = {}
     for tk in INTERFACE_TIMES[s.case]:
-        if tk > s.t_end * (1 + 1e-12):            # a reference run that stopped earlier
+        if tk > ref.t_end * (1 + 1e-12):          # a reference run that stopped earlier
             continue
         k = int(np.argmin(np.abs(stimes - tk))) if len(stimes) else -1
         if k < 0 or abs(stimes[k] - tk) > 1e-6 * max(1.0, tk):
@@ -876,7 +878,7 @@ def figure(runs, refs, output, labels=None, dpi=110):
     labels = labels or [os.path.basename(r.path.rstrip("/")) for r in runs]
     if len(labels) != len(runs):
         raise sp.PostprocError(f"--labels needs one label per run ({len(runs)})")
-    times = [t for t in INTERFACE_TIMES[s.case] if t <= s.t_end * (1 + 1e-12)]
+    times = [t for t in INTERFACE_TIMES[s.case] if t <= refs[-1].t_end * (1 + 1e-12)]
     fig = plt.figure(figsize=(12, 10))
     gs = fig.add_gridspec(2, len(times), height_ratios=[1.1, 1])
     ax = fig.add_subplot(gs[0, :])

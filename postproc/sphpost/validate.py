@@ -396,7 +396,7 @@ def against_reference(case, scheme_jobs, root, doc):
             out["uncertainty"]["p_until_mean"] = float(np.mean(np.abs(d)))
         out["uncertainty"]["interface"] = {
             f"{tk:g}": reference.curve_distance(b.interface(tk), a.interface(tk))[0]
-            for tk in reference.INTERFACE_TIMES[case] if tk <= b.setup.t_end * (1 + 1e-12)}
+            for tk in reference.INTERFACE_TIMES[case] if tk <= b.t_end * (1 + 1e-12)}
     for (label, _, _), jobs in zip(SQUARE_SCHEMES, scheme_jobs):
         rows = []
         for j in jobs:
