@@ -10,8 +10,8 @@ module halo_exchange
                        particles_unpack, particles_field, particles_field_i8
   use particle_fields, only: FIELD_TABLE, N_FIELDS, MIGRATE_FIELDS, HALO_FIELDS, &
                              REFRESH_FIELDS, MIGRATE_WORDS, HALO_WORDS, REFRESH_WORDS, FIELD_ID
-  use mirrors, only: mirror_codes, reflect, plane_distance2, image_id, reflect_column, &
-                     REFLECT_VECTOR
+  use mirrors, only: mirror_codes, reflect, plane_distance2, image_id, image_code, &
+                     reflect_column, REFLECT_VECTOR
   use domain, only: domain_t, domain_owner, domain_ranks_near
   use parallel_env, only: parallel_env_t
   use mpi_f08, only: MPI_Alltoall, MPI_Isend, MPI_Irecv, MPI_Waitall, MPI_Request, &
@@ -92,7 +92,7 @@ contains
     type(domain_t), intent(in) :: d
     type(particles_t), intent(inout) :: parts
     real(wp), intent(in) :: radius
-    integer, allocatable :: counts(:), rcounts(:), fill(:), codes(:), icounts(:), ircounts(:)
+    integer, allocatable :: counts(:), rcounts(:), fill(:), codes(:)
     real(wp), allocatable :: sbuf(:, :), rbuf(:, :)
     real(wp) :: xm(3)
     integer :: ranks(env%nranks), nr, i, q, p, n, j, pass, c
@@ -103,7 +103,6 @@ contains
     if (allocated(h%send_start)) deallocate(h%send_start, h%send_idx, h%recv_start)
     if (allocated(h%send_code)) deallocate(h%send_code, h%flip)
     allocate(h%send_start(0:p), h%recv_start(0:p), counts(0:p - 1), rcounts(0:p - 1))
-    allocate(icounts(0:p - 1), ircounts(0:p - 1))
     h%send_start = 0
     h%recv_start = 0
     h%n_sent = 0
@@ -118,7 +117,6 @@ contains
     ! two passes over the particles: count, then fill the send lists; per
     ! particle its copies (code 0), then its images by ascending code
     counts = 0
-    icounts = 0
     do pass = 1, 2
       if (pass == 2) then
         do q = 0, p - 1
@@ -144,14 +142,12 @@ contains
       end do
     end do
     call MPI_Alltoall(counts, 1, MPI_INTEGER, rcounts, 1, MPI_INTEGER, env%comm)
-    call MPI_Alltoall(icounts, 1, MPI_INTEGER, ircounts, 1, MPI_INTEGER, env%comm)
     do q = 0, p - 1
       h%recv_start(q + 1) = h%recv_start(q) + rcounts(q)
     end do
     h%n_sent = h%send_start(p)
     h%n_received = h%recv_start(p)
     h%n_self = counts(env%rank)
-    h%n_images = sum(ircounts)
     h%flip = pack([(j, j = 1, h%n_sent)], h%send_code /= 0)
     allocate(sbuf(HALO_WORDS, max(1, h%n_sent)), rbuf(HALO_WORDS, max(1, h%n_received)))
     call particles_pack(parts, HALO_FIELDS, h%send_idx, sbuf)
@@ -160,6 +156,8 @@ contains
     call particles_reserve(parts, n + h%n_received)
     call particles_unpack(parts, HALO_FIELDS, n, h%n_received, rbuf)
     call clear_halo_slots(parts, .not. FIELD_TABLE%halo, n, h%n_received)
+    ! the images among the arrivals carry an image id (mirrors)
+    if (h%mirror /= 0) h%n_images = count(image_code(parts%id(n + 1:n + h%n_received)) /= 0)
     parts%n_halo = h%n_received
     call reserve_buffer(h%sbuf, REFRESH_WORDS * h%n_sent)
     call reserve_buffer(h%rbuf, REFRESH_WORDS * h%n_received)
@@ -171,7 +169,6 @@ contains
       integer, intent(in) :: q, i, code
       if (pass == 1) then
         counts(q) = counts(q) + 1
-        if (code /= 0) icounts(q) = icounts(q) + 1
       else
         fill(q) = fill(q) + 1
         h%send_idx(fill(q)) = i
