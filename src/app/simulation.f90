@@ -33,7 +33,7 @@ module simulation
   use timeseries, only: timeseries_t, timeseries_init, timeseries_add, timeseries_flush, &
                         timeseries_load
   use restart, only: restart_read, restart_index_history, snapshot_number, restart_info_t, &
-                     history_attributes, ATTR_SYMMETRY, ATTR_COPIES
+                     history_attributes, mirror_attributes
   use signals, only: signals_install, signals_caught, signal_name
   use domain, only: DECOMP_SLAB, DECOMP_METIS, DECOMP_SFC
   use packing, only: packing_params_t, packing_report_t, pack_ball
@@ -565,18 +565,13 @@ contains
         ! (M3) the whole body: the part, then its reflections
         call particles_whole_body(s%parts, mask, whole)
         flow%lambda = [(flow%lambda(1:s%parts%n), k = 1, mirror_copies(mask))]
-        call particles_snapshot_fields(whole, extra, fields)
         source%parts => whole
-        names = [character(len=32) :: names, ATTR_SYMMETRY, ATTR_COPIES]
-        values = [values, real(mask, wp), real(mirror_copies(mask), wp)]
       else
-        call particles_snapshot_fields(s%parts, extra, fields)
         source%parts => s%parts
-        if (mask /= 0) then
-          names = [character(len=32) :: names, ATTR_SYMMETRY, ATTR_COPIES]
-          values = [values, real(mask, wp), 1.0_wp]
-        end if
       end if
+      call particles_snapshot_fields(source%parts, extra, fields)
+      call mirror_attributes(mask, merge(mirror_copies(mask), 1, cfg%output%mirror), names, &
+                             values)
       call snapshot_write(env%comm, join_path(run%dir, snapshot_filename(run%n_snapshots)), &
                           t, step, s%parts%dim, trim(cfg%run%case_name), source%parts%n, fields, &
                           ok, errmsg, attr_names=names, attr_values=values, index=run%xdmf, &
@@ -619,10 +614,7 @@ contains
     call history_attributes(restart_info_t(checkpoint=.true., accel_max=h%a_max, &
                                            list_skin=h%skin, force_rebuild=h%force_rebuild, &
                                            snapshots_written=run%n_snapshots), names, values)
-    if (run%problem%mirror /= 0) then
-      names = [character(len=32) :: names, ATTR_SYMMETRY, ATTR_COPIES]
-      values = [values, real(run%problem%mirror, wp), 1.0_wp]
-    end if
+    call mirror_attributes(run%problem%mirror, 1, names, values)
     allocate(extra(0))
     call particles_snapshot_fields(s%parts, extra, fields, checkpoint=.true.)
     call snapshot_write(env%comm, join_path(run%dir, CHECKPOINT_FILE), t, step, s%parts%dim, &
@@ -742,7 +734,7 @@ contains
     if (leaving /= 0) write(output_unit, '(a)') 'sph: warning: the flow leaves the mirror ' // &
       'plane(s) ' // mirror_word(leaving) // ' (stretching along the normal): a mirror-' // &
       'symmetric particle arrangement does not refill them, and the errors near them grow ' // &
-      '(doc/symmetry.md, "What the planes cost in accuracy")'
+      '(doc/symmetry.md, "What the planes cost, and what they save")'
     write(output_unit, '(a,f8.2,a,f6.4,a,f8.1,a,f8.1,a)') '  c0 ', s%rhs%c0, '  Mach ', &
       s%umax / s%rhs%c0, '  neighbours per particle ', in_range, ' (', listed, ' in the list)'
     write(output_unit, '(a)') '  kernel ' // trim(cfg%numerics%kernel) // ', integrator ' // &

@@ -189,7 +189,7 @@ contains
 
   !> The mirror planes (a mask) that the flow leaves at the start: a
   !> positive strain rate along their normal (doc/symmetry.md, "What the
-  !> planes cost in accuracy").  None by default.
+  !> planes cost, and what they save").  None by default.
   integer function no_leaving_planes(self) result(mask)
     class(case_t), intent(in) :: self
     mask = 0

@@ -15,7 +15,7 @@ module restart
   implicit none
   private
   public :: restart_read, restart_index_history, snapshot_number, restart_info_t, &
-            history_attributes
+            history_attributes, mirror_attributes
 
   !> Root attributes of the step history (solver: step_history_t): every
   !> snapshot stores the largest acceleration of the last right-hand side,
@@ -27,8 +27,8 @@ module restart
                                  ATTR_SNAPSHOTS = 'history_snapshots_written'
   !> the mirror planes' mask of the run and the copies of the part the
   !> file holds (1: the part; 2^planes: the whole body, output.mirror)
-  character(len=*), parameter, public :: ATTR_SYMMETRY = 'symmetry_mask', &
-                                         ATTR_COPIES = 'mirror_copies'
+  character(len=*), parameter :: ATTR_SYMMETRY = 'symmetry_mask', &
+                                 ATTR_COPIES = 'mirror_copies'
 
   !> What a snapshot or a checkpoint says of the steps before it.
   type :: restart_info_t
@@ -135,6 +135,18 @@ contains
     t = snap%time
     step = snap%step
   end subroutine restart_read
+
+  !> Appends the mirror planes' root attributes of a file (a run with
+  !> planes only): the mask and the copies of the part it holds, which
+  !> restart_read checks and reads back.
+  subroutine mirror_attributes(mask, copies, names, values)
+    integer, intent(in) :: mask, copies
+    character(len=32), allocatable, intent(inout) :: names(:)
+    real(wp), allocatable, intent(inout) :: values(:)
+    if (mask == 0) return
+    names = [character(len=32) :: names, ATTR_SYMMETRY, ATTR_COPIES]
+    values = [values, real(mask, wp), real(copies, wp)]
+  end subroutine mirror_attributes
 
   !> The root attributes that carry info into a file, as restart_read reads
   !> them back: the largest acceleration alone for a snapshot, the whole
