@@ -270,7 +270,9 @@ contains
             v(:, i) = 0
             hit = .true.
           end if
-          if (off_planes(x(:, i), v(:, i)) .or. hit) clipped = clipped + 1
+          ! (a call of its own: an operand of .or. need not be evaluated)
+          if (off_planes(x(:, i), v(:, i))) hit = .true.
+          if (hit) clipped = clipped + 1
           vmax = max(vmax, norm2(v(:, i)))
         end do
       end associate
