@@ -275,15 +275,15 @@ def read_timeseries(path):
 IMAGE_ID_STRIDE = 2 ** 32
 
 
-def mirror_mask(word):
-    """The mask of particles.symmetry (x: 1, y: 2, z: 4; 'none': 0)."""
-    if word in ("", "none"):
-        return 0
-    return sum(1 << "xyz".index(c) for c in set(word))
-
-
 def mirror_copies(mask):
     return 2 ** bin(mask).count("1")
+
+
+def mirror_attrs(attrs):
+    """A snapshot's mirror planes (doc/output.md): their mask (0: none) and
+    the copies of the part the file holds (1: the part)."""
+    return (int(round(float(attrs.get("symmetry_mask", 0)))),
+            int(round(float(attrs.get("mirror_copies", 1)))))
 
 
 def unfold_mirrors(fields, mask):
@@ -369,23 +369,13 @@ class Run:
         with h5py.File(path, "r") as f:
             out = {k: f[k][:] for k in f if k != "connectivity"}
         attrs = self.snapshot_attrs(path)
-        mask = int(round(float(attrs.get("symmetry_mask", 0))))
-        if mask and int(round(float(attrs.get("mirror_copies", 1)))) == 1:
+        mask, held = mirror_attrs(attrs)
+        if mask and held == 1:
             out = unfold_mirrors(out, mask)
         order = np.argsort(out["id"])
         out = {k: v[order] for k, v in out.items()}
         out["attrs"] = attrs
         return out
-
-    @property
-    def mirror(self):
-        """The mirror planes' mask of the run (0: none), from its snapshots'
-        symmetry_mask or its input's particles.symmetry."""
-        if self.snapshots:
-            a = self.snapshot_attrs(self.snapshots[0])
-            return int(round(float(a.get("symmetry_mask", 0))))
-        word = str(self.nml.get("particles", {}).get("symmetry", "none")).strip().lower()
-        return mirror_mask(word)
 
     def window(self, until):
         """Cuts the time series at t rate = until (in the case's flow time,
@@ -422,9 +412,7 @@ class Run:
                 # the whole body's count: a run with mirror planes writes
                 # the part (mirror_copies 1) or the whole body
                 import h5py
-                a = self.snapshot_attrs(self.snapshots[0])
-                mask = int(round(float(a.get("symmetry_mask", 0))))
-                held = int(round(float(a.get("mirror_copies", 1))))
+                mask, held = mirror_attrs(self.snapshot_attrs(self.snapshots[0]))
                 with h5py.File(self.snapshots[0], "r") as f:
                     self._n = int(f["position"].shape[0]) * mirror_copies(mask) // held
             else:
