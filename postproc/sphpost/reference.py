@@ -2,6 +2,9 @@
 two-phase solver, Gerris, as the reference for any particle run.
 
   postproc/reference run CASE --level N      writes and runs the Gerris case, then analyses it
+  postproc/reference run CASE --level N --resume
+                                             continues a run stopped early from its newest
+                                             complete checkpoint
   postproc/reference analyse DIR             analyses a finished Gerris run again
   postproc/reference study DIR DIR...        the reference's own resolution study
   postproc/reference compare RUN DIR         an sph run against a reference
@@ -32,7 +35,11 @@ CSV with a header line, in the case's own units (doc/reference.md):
   summary.json      the settings, the initial probe pressure against the sine
                     series, the first cavity's time, the area and energy drift,
                     the wall time
-plus the Gerris input (sim.gfs) and its log (gerris.log).
+plus the Gerris input (sim.gfs), its log (gerris.log) and its last two
+checkpoints (checkpoint-T.gfs, every CHECKPOINT_DT time units).  A resumed
+run's tables continue the earlier ones: Gerris rewrites probe.dat and the other
+tables from the checkpoint's time, so the earlier ones are kept as probe.dat.1,
+probe.dat.2, ... and read as one series.
 """
 import argparse
 import json
@@ -73,6 +80,10 @@ WINDOWS = {"square_rotation": (1.0, 1.5, 2.0), "square_vortical": (0.2,)}
 TRIM = 0.1
 # Output spacing of the tabulated series, in the case's time unit.
 DT_OUT = 0.01
+# A checkpoint (Gerris's whole state, binary) every so many time units; the
+# last CHECKPOINTS_KEPT complete ones are kept.
+CHECKPOINT_DT = 0.05
+CHECKPOINTS_KEPT = 2
 # Samples whose step is shorter than this fraction of the median step around
 # them are left out: Gerris shortens a step to land on an output time, and
 # the projection's pressure after a very short step carries its residual
@@ -234,7 +245,8 @@ def gerris_file(s):
   OutputScalarSum {{ istep = 1 }} band.dat {{ v = {band} }}
   OutputScalarSum {{ istep = 1 }} band_p.dat {{ v = {band}*P }}
   OutputScalarSum {{ istep = 1 }} energy.dat {{ v = {0.5 * s.rho0!r}*T*(U*U + V*V) }}
-{outs}}}
+{outs}  OutputSimulation {{ step = {CHECKPOINT_DT * s.time_unit!r} }} checkpoint-%g.gfs
+}}
 GfsBox {{}}
 """
 
@@ -243,46 +255,151 @@ GfsBox {{}}
 # Running Gerris
 # ---------------------------------------------------------------------------
 
-def run_gerris(s, out_dir, echo=print, progress_interval=30.0):
+def checkpoints(out_dir):
+    """The checkpoints in out_dir as a sorted list of (t, path), t in
+    Gerris's time."""
+    found = []
+    for name in os.listdir(out_dir):
+        m = re.match(r"checkpoint-(.*)\.gfs$", name)
+        if m:
+            found.append((float(m.group(1)), os.path.join(out_dir, name)))
+    return sorted(found)
+
+
+_STEP = re.compile(r"step:\s*(\d+)\s+t:\s*(\S+)\s+dt:\s*(\S+)")
+
+
+def _last_logged_time(out_dir):
+    """The time of the last step gerris.log reports (-inf without one)."""
+    t = -math.inf
+    path = os.path.join(out_dir, "gerris.log")
+    if os.path.isfile(path):
+        with open(path, errors="replace") as f:
+            for line in f:
+                m = _STEP.search(line)
+                if m:
+                    t = float(m.group(2))
+    return t
+
+
+def complete_checkpoints(out_dir):
+    """The checkpoints written completely: those before the last step the
+    log reports (Gerris writes an output within its step, so a later step
+    means the file was closed)."""
+    t_log = _last_logged_time(out_dir)
+    return [c for c in checkpoints(out_dir) if c[0] < t_log]
+
+
+def _prune_checkpoints(out_dir):
+    """Removes all but the last CHECKPOINTS_KEPT complete checkpoints."""
+    for _, path in complete_checkpoints(out_dir)[:-CHECKPOINTS_KEPT]:
+        os.remove(path)
+
+
+def _segments(path):
+    """The files of one Gerris table across resumed runs: path.1, path.2, ...
+    (the earlier runs'), then path itself."""
+    k, found = 1, []
+    while os.path.isfile(f"{path}.{k}"):
+        found.append(f"{path}.{k}")
+        k += 1
+    return found + ([path] if os.path.isfile(path) else [])
+
+
+def _join_segments(parts):
+    """Rows (t first) of successive segments as one series: each segment is
+    cut where the next one starts (the resumed run writes again from its
+    checkpoint's time)."""
+    parts = [a for a in parts if len(a)]
+    for k in range(len(parts) - 1):
+        parts[k] = parts[k][parts[k][:, 0] < parts[k + 1][0, 0]]
+    return np.concatenate(parts) if parts else np.zeros((0, 2))
+
+
+def run_gerris(s, out_dir, echo=print, progress_interval=30.0, resume=False):
     """Writes sim.gfs into out_dir and runs gerris2D there, its messages to
     gerris.log; prints the progress with an ETA every progress_interval
-    seconds.  Returns the wall time."""
+    seconds.  With resume, continues the run in out_dir (which must have
+    the same settings) from its newest complete checkpoint.  Returns the
+    wall time, the earlier runs' included."""
     exe = shutil.which("gerris2D")
     if exe is None:
         raise sp.PostprocError("gerris2D not found: install Debian's packages gerris and "
                                "libgfs-dev (setup.sh does)")
-    os.makedirs(out_dir, exist_ok=True)
-    for old in os.listdir(out_dir):
-        if re.match(r"(field|scan)-.*\.txt$|.*\.dat$|.*\.csv$|summary\.json$", old):
-            os.remove(os.path.join(out_dir, old))
-    with open(os.path.join(out_dir, "sim.gfs"), "w") as f:
-        f.write(gerris_file(s))
     t_end = s.t_end * s.time_unit
+    t0, segment = 0.0, 0
+    if resume:
+        old = load_setup(out_dir)
+        diff = [k for k, v in s.as_dict().items() if old.as_dict()[k] != v]
+        if diff:
+            raise sp.PostprocError(f"--resume: {out_dir} was run with other settings ("
+                                   + ", ".join(f"{k} {old.as_dict()[k]!r} not {getattr(s, k)!r}"
+                                               for k in diff) + ")")
+        done = complete_checkpoints(out_dir)
+        if not done:
+            raise sp.PostprocError(f"--resume: {out_dir} has no complete checkpoint (one is "
+                                   f"written every {CHECKPOINT_DT:g} time units): run it again "
+                                   "without --resume")
+        t0, start_file = done[-1]
+        # the earlier runs' tables become segments; Gerris writes them anew
+        # from t0
+        while os.path.isfile(os.path.join(out_dir, f"wall-{segment}.txt")):
+            segment += 1
+        for name in sorted(os.listdir(out_dir)):
+            if name.endswith(".dat"):
+                path = os.path.join(out_dir, name)
+                os.replace(path, f"{path}.{len(_segments(path))}")
+        echo(f"  resuming from {os.path.basename(start_file)} (t {t0 / s.time_unit:g})")
+    else:
+        os.makedirs(out_dir, exist_ok=True)
+        for old in os.listdir(out_dir):
+            if re.match(r"(field|scan)-.*\.txt$|.*\.dat(\.\d+)?$|.*\.csv$|summary\.json$|"
+                        r"checkpoint-.*\.gfs$|wall-\d+\.txt$", old):
+                os.remove(os.path.join(out_dir, old))
+        with open(os.path.join(out_dir, "sim.gfs"), "w") as f:
+            f.write(gerris_file(s))
+        start_file = os.path.join(out_dir, "sim.gfs")
+    earlier = sum(float(open(os.path.join(out_dir, f"wall-{k}.txt")).read() or 0)
+                  for k in range(segment))
+    wall_file = os.path.join(out_dir, f"wall-{segment}.txt")
     start = last = time.monotonic()
-    pat = re.compile(r"step:\s*(\d+)\s+t:\s*(\S+)\s+dt:\s*(\S+)")
-    with open(os.path.join(out_dir, "gerris.log"), "w") as log:
-        proc = subprocess.Popen([exe, "sim.gfs"], cwd=out_dir, stdout=log,
+
+    def note_wall():
+        with open(wall_file, "w") as f:
+            f.write(f"{time.monotonic() - start:.1f}\n")
+
+    with open(os.path.join(out_dir, "gerris.log"), "a" if resume else "w") as log:
+        proc = subprocess.Popen([exe, os.path.basename(start_file)], cwd=out_dir, stdout=log,
                                 stderr=subprocess.PIPE, text=True)
         try:
             for line in proc.stderr:
                 log.write(line)
-                m = pat.search(line)
+                log.flush()
+                m = _STEP.search(line)
+                if not m:
+                    continue
+                _prune_checkpoints(out_dir)
                 now = time.monotonic()
-                if m and now - last >= progress_interval:
+                if now - last >= progress_interval:
                     last = now
+                    note_wall()
                     t = float(m.group(2))
-                    eta = f"{(now - start) * (t_end - t) / t:8.1f} s" if t > 0 else "unknown"
+                    eta = (f"{(now - start) * (t_end - t) / (t - t0):8.1f} s" if t > t0
+                           else "unknown")
                     echo(f"  step {int(m.group(1)):7d}  t {t / s.time_unit:8.4f}  "
-                         f"dt {float(m.group(3)):.3e}  wall {now - start:8.1f} s  ETA {eta}")
+                         f"dt {float(m.group(3)):.3e}  wall {earlier + now - start:8.1f} s  "
+                         f"ETA {eta}")
         except KeyboardInterrupt:
             proc.terminate()
             proc.wait()
             raise
         rc = proc.wait()
-    wall = time.monotonic() - start
+    note_wall()
+    wall = earlier + time.monotonic() - start
     if rc != 0:
         raise sp.PostprocError(f"gerris2D stopped with status {rc} in {out_dir}: see its "
-                               "gerris.log")
+                               "gerris.log (postproc/reference run ... --resume continues "
+                               "from its newest checkpoint)")
     return wall
 
 
@@ -293,12 +410,13 @@ def run_gerris(s, out_dir, echo=print, progress_interval=30.0):
 def _columns(path):
     """A Gerris table (OutputLocation, text OutputSimulation): {name: array}
     from its header '# 1:t 2:x ...'."""
-    if not os.path.isfile(path):
+    files = _segments(path)
+    if not files:
         raise sp.PostprocError(f"{path} is missing: did the Gerris run finish?")
-    with open(path) as f:
+    with open(files[-1]) as f:
         head = f.readline()
     names = [m.group(2) for m in re.finditer(r"(\d+):(\S+)", head)]
-    data = np.loadtxt(path, comments="#", ndmin=2)
+    data = _join_segments([np.loadtxt(f, comments="#", ndmin=2) for f in files])
     if data.shape[0] == 0 or data.shape[1] < len(names):
         raise sp.PostprocError(f"{path} has no rows or fewer columns than its header")
     return {n: data[:, k] for k, n in enumerate(names)}
@@ -306,13 +424,15 @@ def _columns(path):
 
 def _sums(path):
     """An OutputScalarSum file as arrays (t, sum)."""
-    if not os.path.isfile(path):
+    files = _segments(path)
+    if not files:
         raise sp.PostprocError(f"{path} is missing: did the Gerris run finish?")
     pat = re.compile(r"time:\s*(\S+)\s+sum:\s*(\S+)")
-    rows = [tuple(float(v) for v in m.groups()) for m in map(pat.search, open(path)) if m]
-    if not rows:
+    a = _join_segments([np.array([tuple(float(v) for v in m.groups())
+                                  for m in map(pat.search, open(f)) if m]).reshape(-1, 2)
+                        for f in files])
+    if not len(a):
         raise sp.PostprocError(f"{path} has no 'time: ... sum: ...' lines")
-    a = np.array(rows)
     return a[:, 0], a[:, 1]
 
 
@@ -957,6 +1077,9 @@ def command(argv, prog="postproc/reference"):
                    help="the side of Gerris's square domain in units of L (default 8)")
     r.add_argument("--dir", help="the output directory (default "
                    "runs/reference/CASE/level_N)")
+    r.add_argument("--resume", action="store_true",
+                   help="continue the run in the output directory, stopped early, from its "
+                   "newest complete checkpoint (the same settings are required)")
     a = sub.add_parser("analyse", help="analyse a finished Gerris run again")
     a.add_argument("dir")
     a.add_argument("--partial", action="store_true",
@@ -984,7 +1107,7 @@ def command(argv, prog="postproc/reference"):
         out = args.dir or os.path.join("runs", "reference", args.case, f"level_{args.level}")
         print(f"{prog}: {args.case} at level {args.level} ({1 / s.dx:g} cells per L) in {out}",
               flush=True)
-        wall = run_gerris(s, out, echo=lambda m: print(m, flush=True))
+        wall = run_gerris(s, out, echo=lambda m: print(m, flush=True), resume=args.resume)
         analyse(out, wall=wall)
     elif args.verb == "analyse":
         analyse(args.dir, partial=args.partial)
