@@ -33,7 +33,8 @@ CSV with a header line, in the case's own units (doc/reference.md):
   cavities.csv      t, cavities, largest_cavity_area (vortical square): light-
                     phase regions enclosed by the dense phase
   summary.json      the settings, the initial probe pressure against the sine
-                    series, the first cavity's time, the area and energy drift,
+                    series, the first cavity's time and the reconnection's (the
+                    first cavity of at least 0.01 L^2), the area and energy drift,
                     the wall time
 plus the Gerris input (sim.gfs), its log (gerris.log) and its last two
 checkpoints (checkpoint-T.gfs, every CHECKPOINT_DT time units).  A resumed
@@ -71,6 +72,10 @@ INTERFACE_TIMES = {"square_rotation": (1.0, 2.0, 3.0, 4.0),
 CAVITY_WINDOW = (1.1, 1.35)
 # The scans' spacing there: the first cavity's time is known to half of it.
 CAVITY_DT = 0.0025
+# The reconnection: the first cavity at least this large (in L^2).  The arms
+# touching enclose 0.032 L^2 at once (levels 9 and 10); at 256 cells per L
+# the interface also sheds light-phase bubbles of 0.0018-0.0034 L^2 before it.
+RECONNECTION_AREA = 0.01
 # The shorter windows [0, w] over which the study also compares the probe
 # pressure (the rotating square's surface is Rayleigh-Taylor unstable, so
 # that its later evolution depends on the grid: doc/reference.md).
@@ -617,7 +622,7 @@ def analyse(ref_dir, echo=print, wall=None, partial=False):
         rows = [(k, float(x), float(y)) for k, c in enumerate(lines) for x, y in c / s.side]
         write_csv(os.path.join(ref_dir, f"interface_{tk:g}.csv"), ("piece", "x", "y"), rows)
         interfaces[f"{tk:g}"] = {"pieces": len(lines), "cavities": len(cavities(g))}
-    first_cavity = None
+    first_cavity = reconnection = None
     if s.case == "square_vortical":
         scans = []
         for name in os.listdir(ref_dir):
@@ -632,11 +637,8 @@ def analyse(ref_dir, echo=print, wall=None, partial=False):
         if rows:
             write_csv(os.path.join(ref_dir, "cavities.csv"),
                       ("t", "cavities", "largest_cavity_area"), rows)
-            hit = [r for r in rows if r[1] > 0]
-            if hit:
-                # between the last scan without and the first with a cavity
-                k = rows.index(hit[0])
-                first_cavity = 0.5 * (hit[0][0] + rows[k - 1][0]) if k > 0 else hit[0][0]
+            first_cavity = first_scan(rows, 0.0)
+            reconnection = first_scan(rows, RECONNECTION_AREA)
     steps = len(probe["t"]) - 1
     summary = {
         "settings": s.as_dict(),
@@ -651,6 +653,7 @@ def analyse(ref_dir, echo=print, wall=None, partial=False):
         "kinetic_energy_change_end": float(ge[-1] / ge[0] - 1),
         "interfaces": interfaces,
         "first_cavity": first_cavity,
+        "reconnection": reconnection,
     }
     if t_end < s.t_end:
         summary["partial_until"] = t_end
@@ -676,13 +679,25 @@ def analyse(ref_dir, echo=print, wall=None, partial=False):
     echo(f"  area drift at most {100 * summary['area_drift_max']:.4f} %, kinetic energy "
          f"change at the end {100 * summary['kinetic_energy_change_end']:+.3f} %")
     if s.case == "square_vortical":
-        echo(f"  first cavity at t V0/L = {first_cavity}")
+        echo(f"  first cavity at t V0/L = {first_cavity}, reconnection (a cavity of at least "
+             f"{RECONNECTION_AREA:g} L^2) at {reconnection}")
     return summary
 
 
 # ---------------------------------------------------------------------------
 # Comparing references (the resolution study) and runs with a reference
 # ---------------------------------------------------------------------------
+
+def first_scan(rows, min_area):
+    """The time of the first scan (t, cavities, largest area) with a cavity
+    larger than min_area: half-way between it and the scan before it; None
+    without one."""
+    hit = [k for k, r in enumerate(rows) if r[1] > 0 and r[2] > min_area]
+    if not hit:
+        return None
+    k = hit[0]
+    return 0.5 * (rows[k][0] + rows[k - 1][0]) if k > 0 else rows[k][0]
+
 
 def read_interface(path):
     """An interface file as a list of (n, 2) polylines."""
@@ -743,7 +758,9 @@ class Reference:
         return read_interface(os.path.join(self.path, f"interface_{t:g}.csv"))
 
     def cavity_time(self):
-        return self.summary.get("first_cavity")
+        """The reconnection's time (the first cavity of a summary written
+        before the reconnection was told apart)."""
+        return self.summary.get("reconnection", self.summary.get("first_cavity"))
 
 
 def level_gap(a, b):
@@ -794,8 +811,8 @@ def study(dirs, echo=print):
     tl = "t omega" if case == "square_rotation" else "t V0/L"
     echo(f"### {case}: the reference at {len(refs)} levels\n")
     echo("| level | cells per L | steps | wall time | p(0) against the series | "
-         "largest area drift | KE change at the end | first cavity |")
-    echo("|---|---|---|---|---|---|---|---|")
+         "largest area drift | KE change at the end | first cavity | reconnection |")
+    echo("|---|---|---|---|---|---|---|---|---|")
     rows = []
     for r in refs:
         sm = r.summary
@@ -805,17 +822,18 @@ def study(dirs, echo=print):
              + (f"{wall:.0f} s" if wall is not None else "") + " | "
              f"{100 * sm['p_probe_initial_error']:+.3f} % | {100 * sm['area_drift_max']:.3f} % | "
              f"{100 * sm['kinetic_energy_change_end']:+.2f} % | "
-             + (f"{cav:.4f}" if cav is not None else "") + " |")
+             + (f"{cav:.4f}" if cav is not None else "") + " | "
+             + (f"{r.cavity_time():.4f}" if r.cavity_time() is not None else "") + " |")
         rows.append({"level": r.setup.level, "summary": sm})
     times = INTERFACE_TIMES[case]
     echo(f"\nBetween successive levels: the probe pressure's mean and largest difference "
          f"over {tl} in [0, {refs[0].t_end:g}] where both probes are in the dense phase "
          f"(of |p(0)|), the interfaces' mean "
          f"distance (in L) at {tl} = {', '.join(f'{t:g}' for t in times)}, and the "
-         "first cavity's time:\n")
+         "reconnection's time:\n")
     wins = [w for w in WINDOWS[case] if w < min(r.t_end for r in refs)]
     echo("| levels | p mean | p max | " + "".join(f"p mean to {w:g} | " for w in wins)
-         + " | ".join(f"interface {t:g}" for t in times) + " | cavity time |")
+         + " | ".join(f"interface {t:g}" for t in times) + " | reconnection |")
     echo("|---|---|---|" + "---|" * (len(times) + len(wins)) + "---|")
     pairs = []
     for a, b in zip(refs[:-1], refs[1:]):
@@ -979,7 +997,7 @@ def compare(run_dir, ref_dir, echo=print, fc=None, transition=sp.DEFAULT_TRANSIT
         echo(f"  free surface at {tl} = {tk}: mean distance {dm:.4f} L ({dm / dx * s.side:.2f} "
              f"dx), largest {dmax:.4f} L; arm tips' radius {out['tip'][tk]:+.4f} L")
     if "first_cavity" in out:
-        echo(f"  first cavity at {tl} = {out['first_cavity']} (reference: "
+        echo(f"  first cavity at {tl} = {out['first_cavity']} (the reference's reconnection: "
              f"{out['first_cavity_reference']})")
     return out
 

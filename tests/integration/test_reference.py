@@ -377,3 +377,14 @@ def test_a_run_without_a_checkpoint_is_not_resumed(tmp_path):
     (d / "sim.gfs").write_text(ref.gerris_file(s))
     with pytest.raises(sp.PostprocError, match="no complete checkpoint"):
         ref.run_gerris(s, str(d), resume=True)
+
+
+def test_the_reconnection_is_the_first_large_cavity():
+    # scans (t, cavities, largest area): a shed bubble of 0.002 L^2 from
+    # 1.10, gone at 1.1050, then the arms enclose 0.03 L^2 at 1.1075
+    rows = [(1.1, 1, 0.002), (1.1025, 1, 0.002), (1.105, 0, 0.0), (1.1075, 1, 0.03),
+            (1.11, 2, 0.031)]
+    assert ref.first_scan(rows, 0.0) == 1.1
+    assert abs(ref.first_scan(rows, ref.RECONNECTION_AREA) - 1.10625) < 1e-12
+    assert ref.first_scan(rows[:3], ref.RECONNECTION_AREA) is None
+    assert abs(ref.first_scan([(1.0, 0, 0.0)] + rows, 0.0) - 1.05) < 1e-12
