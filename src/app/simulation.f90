@@ -38,7 +38,7 @@ module simulation
   use domain, only: DECOMP_SLAB, DECOMP_METIS, DECOMP_SFC
   use packing, only: packing_params_t, packing_report_t, pack_ball
   use placement, only: packed_volume
-  use mirrors, only: mirror_copies, mirror_word
+  use mirrors, only: mirror_copies, mirror_word, plane_weights
   implicit none
   private
   public :: simulation_run, EXIT_CHECKPOINT
@@ -369,6 +369,7 @@ contains
       run%pack%dx = dx
       run%pack%max_iterations = cfg%particles%pack_iterations
       call pack_ball(s, env, run%pack, run%pack_report)
+      call plane_volumes(env, run%problem, s%parts)
       call run%problem%initial_state(s%eos, s%parts)
       ! the run starts afresh on the packed particles
       s%lm%n_rebuilds = 0
@@ -437,10 +438,9 @@ contains
       ok = .false.
       return
     end if
-    vol = packed_volume(dim, radius, nint(par_sum(env, real(s%parts%n, wp)), i8) * &
-                        mirror_copies(problem%mirror))
-    dx = vol**(1 / real(dim, wp))
-    s%parts%m(1:s%parts%n) = vol
+    dx = packed_volume(dim, radius, nint(par_sum(env, real(s%parts%n, wp)), i8) * &
+                       mirror_copies(problem%mirror))**(1 / real(dim, wp))
+    call plane_volumes(env, problem, s%parts)
     s%parts%rho(1:s%parts%n) = 1
     call problem%initial_state(s%eos, s%parts)
   end subroutine read_packed
@@ -720,7 +720,6 @@ contains
     real(wp), intent(in) :: dx, dt
     real(wp) :: listed, in_range
     integer(i8) :: n_listed, n_in_range
-    integer :: leaving
     call neighbour_counts(s%lm%nl, s%parts%n, s%parts%x, s%rhs%kernel%support**2, n_listed, &
                           n_in_range)
     listed = par_sum(env, real(n_listed, wp)) / max(run%n_global, 1_i8)
@@ -730,11 +729,6 @@ contains
     write(output_unit, '(a,i0,a,i0,a,es10.3,a,es10.3,a,f5.2,a)') '  particles ', run%n_global, &
       '  dim ', s%parts%dim, '  dx ', dx, '  h ', s%rhs%kernel%h, '  (h/dx ', &
       cfg%particles%h_over_dx, ')'
-    leaving = iand(run%problem%mirror, run%problem%leaving_planes())
-    if (leaving /= 0) write(output_unit, '(a)') 'sph: warning: the flow leaves the mirror ' // &
-      'plane(s) ' // mirror_word(leaving) // ' (stretching along the normal): a mirror-' // &
-      'symmetric particle arrangement does not refill them, and the errors near them grow ' // &
-      '(doc/symmetry.md, "What the planes cost, and what they save")'
     write(output_unit, '(a,f8.2,a,f6.4,a,f8.1,a,f8.1,a)') '  c0 ', s%rhs%c0, '  Mach ', &
       s%umax / s%rhs%c0, '  neighbours per particle ', in_range, ' (', listed, ' in the list)'
     write(output_unit, '(a)') '  kernel ' // trim(cfg%numerics%kernel) // ', integrator ' // &
@@ -884,6 +878,25 @@ contains
       'case and &physics must stay within the range of double precision (scale them ' // &
       'to order one)'
   end subroutine check_setup
+
+  !> (M5) The packed particles' volumes |Omega| / N_eff times their plane
+  !> weights (1, or 2^-k on k planes), N_eff the whole body's count:
+  !> the copies times the sum of the weights; rho = 1 for initial_state.
+  subroutine plane_volumes(env, problem, parts)
+    type(parallel_env_t), intent(in) :: env
+    class(case_t), intent(in) :: problem
+    type(particles_t), intent(inout) :: parts
+    real(wp), allocatable :: w(:)
+    real(wp) :: vol
+    integer :: n
+    n = parts%n
+    w = plane_weights(parts%x(:, 1:n), problem%mirror)
+    ! (the weights are multiples of 1/8: their sum is exact in any order)
+    vol = packed_volume(parts%dim, problem%pack_radius, 1_i8) / &
+          (par_sum(env, sum(w)) * mirror_copies(problem%mirror))
+    parts%m(1:n) = vol * w
+    parts%rho(1:n) = 1
+  end subroutine plane_volumes
 
   !> A state that is no longer finite: say where and when, on every rank
   !> that has such a particle; earlier outputs stay as they were.

@@ -52,7 +52,6 @@ module case_base
     procedure(read_group_i), deferred :: read_group
     procedure(value_text_i), deferred :: value_text
     procedure :: check => no_check
-    procedure :: leaving_planes => no_leaving_planes
     procedure(max_speed_i), deferred :: max_speed
     procedure(setup_i), deferred :: setup
     procedure(columns_i), deferred :: columns
@@ -186,15 +185,6 @@ contains
     hint = ''
     if (.false.) var = self%name
   end subroutine no_check
-
-  !> The mirror planes (a mask) that the flow leaves at the start: a
-  !> positive strain rate along their normal (doc/symmetry.md, "What the
-  !> planes cost, and what they save").  None by default.
-  integer function no_leaving_planes(self) result(mask)
-    class(case_t), intent(in) :: self
-    mask = 0
-    if (.false.) mask = self%dim
-  end function no_leaving_planes
 
   !> The state at the current positions of particles of volume m/rho, for
   !> cases that pack (none here).

@@ -48,7 +48,6 @@ module case_stretching
     procedure :: fields => stretching_fields
     procedure :: field => stretching_field
     procedure :: summary => stretching_summary
-    procedure :: leaving_planes => stretching_leaving_planes
   end type stretching_t
 
 contains
@@ -254,17 +253,6 @@ contains
       error stop 'stretching_field: no field ' // name
     end select
   end subroutine stretching_field
-
-  !> The planes x_k = 0 with alpha_k(0) > 0: the flow stretches along their
-  !> normal and leaves them.
-  integer function stretching_leaving_planes(self) result(mask)
-    class(stretching_t), intent(in) :: self
-    integer :: k
-    mask = 0
-    do k = 1, self%dim
-      if (self%a0 * self%rates(k) > 0) mask = ibset(mask, k - 1)
-    end do
-  end function stretching_leaving_planes
 
   !> The closing summary of errors against the exact solution (rank 0 prints).
   subroutine stretching_summary(self, env, unit, t, parts, kernel)

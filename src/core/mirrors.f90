@@ -15,7 +15,7 @@ module mirrors
   implicit none
   private
   public :: mirror_mask, mirror_word, mirror_copies, mirror_codes, mirror_signs, reflect, &
-            image_id, original_id, image_code, plane_distance2, reflect_column, &
+            image_id, original_id, image_code, plane_distance2, reflect_column, plane_weights, on_plane, &
             IMAGE_ID_STRIDE, REFLECT_SCALAR, REFLECT_VECTOR, REFLECT_SYM6, REFLECT_PSEUDO
 
   !> ids of images: id + code IMAGE_ID_STRIDE (particle ids stay below 2^31)
@@ -148,5 +148,29 @@ contains
       a(1) = a(1) * (s(1) * s(2))
     end select
   end subroutine reflect_column
+
+  !> A coordinate exactly 0, of either sign (an image's is -0): the
+  !> particle lies on the plane (M5).
+  pure elemental logical function on_plane(c)
+    real(wp), intent(in) :: c
+    on_plane = .not. (abs(c) > 0)
+  end function on_plane
+
+  !> (M5) The weight of each particle: 2^-k for one lying on k of the planes
+  !> (x_a = 0 exactly; -0 for an image), 1 otherwise.  A particle on a plane
+  !> and its images there coincide: together they are one particle.
+  pure function plane_weights(x, mask) result(w)
+    real(wp), intent(in) :: x(:, :)
+    integer, intent(in) :: mask
+    real(wp) :: w(size(x, 2))
+    integer :: i, k
+    w = 1
+    do k = 1, 3
+      if (.not. btest(mask, k - 1)) cycle
+      do i = 1, size(x, 2)
+        if (on_plane(x(k, i))) w(i) = 0.5_wp * w(i)
+      end do
+    end do
+  end function plane_weights
 
 end module mirrors

@@ -33,6 +33,7 @@ module placement
 
   integer, parameter :: PLACE_RINGS = 1, PLACE_LATTICE = 2, PLACE_PACKED = 3
   real(wp), parameter :: PACK_NOISE = 1.0_wp
+  real(wp), parameter :: PLANE_SNAP = 0.5_wp
 
 contains
 
@@ -116,8 +117,11 @@ contains
       end do
       r = norm2(x(:, i))
       if (r > r_max) x(:, i) = x(:, i) * (r_max / r)
+      ! (M5) within PLANE_SNAP dx of a plane: on it; farther off, reflected
+      ! to the part's side
       do k = 1, dim
-        if (btest(mask, k - 1)) x(k, i) = max(abs(x(k, i)), 0.25_wp * dx)
+        if (btest(mask, k - 1)) x(k, i) = merge(0.0_wp, abs(x(k, i)), &
+                                                abs(x(k, i)) < PLANE_SNAP * dx)
       end do
     end do
     vol = packed_volume(dim, radius, int(total, i8) * mirror_copies(mask))

@@ -232,7 +232,7 @@ contains
         return
       end if
       do k = 1, 3
-        if (btest(mask(mirror), k - 1) .and. .not. parts%x(k, i) > 0) then
+        if (btest(mask(mirror), k - 1) .and. .not. parts%x(k, i) >= 0) then
           i_bad = i
           return
         end if

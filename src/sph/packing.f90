@@ -21,6 +21,7 @@ module packing
   use solver, only: solver_t, solver_rebuild
   use decomposition, only: decomp_refresh
   use parallel_env, only: parallel_env_t, par_max, par_sum, par_sum_exact, wall_time
+  use mirrors, only: plane_weights, on_plane
   implicit none
   private
   public :: packing_params_t, packing_report_t, pack_ball, exterior_table_t, &
@@ -125,10 +126,10 @@ contains
   !> partial sums that are not used.  Every listed pair is summed, the ones
   !> beyond the support with F = W = 0 (kernel_f_list): in this light loop
   !> sorting them out costs more than their exact zeros.
-  subroutine sum_gradient(kernel, n, ntot, x, vol, nl, with_sum, grad, gam)
+  subroutine sum_gradient(kernel, n, ntot, x, vol, w, nl, with_sum, grad, gam)
     type(kernel_t), intent(in) :: kernel
     integer, intent(in) :: n, ntot
-    real(wp), intent(in) :: x(3, ntot), vol
+    real(wp), intent(in) :: x(3, ntot), vol, w(ntot)
     type(neighbour_list_t), intent(in) :: nl
     logical, intent(in) :: with_sum
     real(wp), intent(out) :: grad(3, ntot), gam(ntot)
@@ -138,19 +139,20 @@ contains
     nr = row_capacity(nl)
     allocate(rb(nr, 5))
     allocate(jl(nr))
-    call gradient_rows(kernel, ntot, x, nl, with_sum, nr, jl, rb(:, 1), rb(:, 2), rb(:, 3), &
-                       rb(:, 4), rb(:, 5), grad, gam)
+    call gradient_rows(kernel, ntot, x, w, nl, with_sum, nr, jl, rb(:, 1), rb(:, 2), &
+                       rb(:, 3), rb(:, 4), rb(:, 5), grad, gam)
     grad(:, 1:n) = vol * grad(:, 1:n)
-    gam(1:n) = vol * (gam(1:n) + kernel_w(kernel, 0.0_wp))
+    gam(1:n) = vol * (gam(1:n) + w(1:n) * kernel_w(kernel, 0.0_wp))
     grad(:, n + 1:ntot) = 0
     gam(n + 1:ntot) = 0
   end subroutine sum_gradient
 
   !> The rows of sum_gradient, with explicit-shape buffers (vectorised).
-  subroutine gradient_rows(kernel, ntot, x, nl, with_sum, nr, jl, dx, dy, dz, r2l, fl, grad, gam)
+  subroutine gradient_rows(kernel, ntot, x, w, nl, with_sum, nr, jl, dx, dy, dz, r2l, fl, &
+                           grad, gam)
     type(kernel_t), intent(in) :: kernel
     integer, intent(in) :: ntot, nr
-    real(wp), intent(in) :: x(3, ntot)
+    real(wp), intent(in) :: x(3, ntot), w(ntot)
     type(neighbour_list_t), intent(in) :: nl
     logical, intent(in) :: with_sum
     integer, intent(inout) :: jl(nr)        !< the row's partners (neighbour_row)
@@ -176,8 +178,8 @@ contains
       do l = 1, nn
         j = jl(l)
         g = fl(l) * [dx(l), dy(l), dz(l)]
-        gi = gi + g
-        grad(:, j) = grad(:, j) - g
+        gi = gi + w(j) * g
+        grad(:, j) = grad(:, j) - w(i) * g
       end do
       grad(:, i) = grad(:, i) + gi
       if (.not. with_sum) cycle
@@ -185,8 +187,8 @@ contains
       si = 0
       do l = 1, nn
         j = jl(l)
-        si = si + fl(l)
-        gam(j) = gam(j) + fl(l)
+        si = si + w(j) * fl(l)
+        gam(j) = gam(j) + w(i) * fl(l)
       end do
       gam(i) = gam(i) + si
     end do
@@ -237,7 +239,9 @@ contains
       end if
       if (.not. allocated(grad)) allocate(grad(3, size(s%parts%x, 2)), gam(size(s%parts%x, 2)))
       new_level = it <= LEVEL_EARLY .or. mod(it - 1, LEVEL_EVERY) == 0
-      call sum_gradient(kern, n, ntot, s%parts%x, vol, s%lm%nl, new_level, grad, gam)
+      call sum_gradient(kern, n, ntot, s%parts%x, vol, &
+                        plane_weights(s%parts%x(:, 1:ntot), s%dc%halo%mirror), s%lm%nl, &
+                        new_level, grad, gam)
       ! the level of the discrete kernel sum in the bulk (above 1 by the
       ! kernel's discretisation error, 0.3 % at h = 1.6 dx in 3D) scales the
       ! exterior part, so that the free surface is in balance with the bulk
@@ -259,6 +263,7 @@ contains
           r = norm2(x(:, i))
           if (r > 0) grad(:, i) = grad(:, i) + (level * exterior_slope(tab, r) / r) * x(:, i)
           d = -coef * grad(:, i)
+          call hold_normal(x(:, i), d)
           dn = norm2(d)
           if (dn > dmax_abs) d = d * (dmax_abs / dn)
           v(:, i) = prm%mu * v(:, i) + d
@@ -292,15 +297,26 @@ contains
 
   contains
 
-    !> A particle below dx/4 of a mirror plane put back there (its image
-    !> would be closer than dx/2), its move along the normal stopped.
+    !> A particle on a mirror plane moves along it only.
+    subroutine hold_normal(x, d)
+      real(wp), intent(in) :: x(3)
+      real(wp), intent(inout) :: d(3)
+      integer :: k
+      do k = 1, 3
+        if (btest(s%dc%halo%mirror, k - 1) .and. on_plane(x(k))) d(k) = 0
+      end do
+    end subroutine hold_normal
+
+    !> (M5) A particle that comes within dx/4 of a mirror plane (its image
+    !> within dx/2) goes onto it, its move along the normal stopped.
     logical function off_planes(x, v) result(moved_back)
       real(wp), intent(inout) :: x(3), v(3)
       integer :: k
       moved_back = .false.
       do k = 1, 3
-        if (btest(s%dc%halo%mirror, k - 1) .and. x(k) < 0.25_wp * prm%dx) then
-          x(k) = 0.25_wp * prm%dx
+        if (btest(s%dc%halo%mirror, k - 1) .and. x(k) < 0.25_wp * prm%dx .and. &
+            .not. on_plane(x(k))) then
+          x(k) = 0
           v(k) = 0
           moved_back = .true.
         end if

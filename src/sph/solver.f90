@@ -17,7 +17,7 @@ module solver
   use parallel_env, only: parallel_env_t, par_max, wall_time
   use decomposition, only: decomposition_t, decomp_redistribute, decomp_halo_build, &
                            decomp_refresh, decomp_refresh_field, decomp_measure, BALANCE_PAIRS
-  use mirrors, only: REFLECT_SCALAR, REFLECT_VECTOR, REFLECT_SYM6
+  use mirrors, only: REFLECT_SCALAR, REFLECT_VECTOR, REFLECT_SYM6, on_plane
   use integrators, only: integrator_t, integrator_reserve, integrator_stages, integrator_advance
   implicit none
   private
@@ -428,6 +428,7 @@ contains
 
     do stage = 1, integrator_stages(s%integ)
       if (stage > 1) call solver_evaluate(s, env)
+      if (s%lm%mirror /= 0) call hold_on_planes(s%parts, n, s%lm%mirror, s%du)
       t0 = wall_time()
       call integrator_advance(s%integ, stage, dt, n, s%parts%x, s%parts%u, s%parts%rho, &
                               s%du, s%drho)
@@ -437,6 +438,21 @@ contains
     if (s%lm%mirror /= 0) call take_images_across(s%parts, n, s%lm%mirror, s%n_across)
     if (s%shifting) call shift_particles(s, env, dt)
   end subroutine solver_step
+
+  !> A particle on a mirror plane (x_k = 0) stays on it: its images balance
+  !> its normal acceleration, which round-off would not leave exactly 0.
+  subroutine hold_on_planes(parts, n, mask, du)
+    type(particles_t), intent(in) :: parts
+    integer, intent(in) :: n, mask
+    real(wp), intent(inout) :: du(:, :)
+    integer :: i, k
+    do k = 1, 3
+      if (.not. btest(mask, k - 1)) cycle
+      do i = 1, n
+        if (on_plane(parts%x(k, i))) du(k, i) = 0
+      end do
+    end do
+  end subroutine hold_on_planes
 
   !> (M4) A particle that crossed a mirror plane in the step (it and its
   !> image passed through each other) trades places with its image, which is
