@@ -286,13 +286,28 @@ def mirror_attrs(attrs):
             int(round(float(attrs.get("mirror_copies", 1)))))
 
 
+def plane_sets(x, mask):
+    """(M5) For each particle (rows of x, (N, dim)) the mask of the planes
+    of `mask` it lies on (its coordinate exactly 0, of either sign)."""
+    on = np.zeros(len(x), dtype=np.int64)
+    for k in range(min(3, x.shape[1])):
+        if mask >> k & 1:
+            on |= np.where(x[:, k] == 0, 1 << k, 0)
+    return on
+
+
 def unfold_mirrors(fields, mask):
     """The whole body from the part of a run with mirror planes (M3): the
     part, then its reflection by each nonzero submask (code) of mask in
     ascending order, as the solver's output.mirror writes it: vectors
     (N, dim) flip the code's columns, ids become id + code 2^32, the 2D
-    vorticity (a pseudo-scalar) takes the sign s_x s_y, scalars are copied."""
+    vorticity (a pseudo-scalar) takes the sign s_x s_y, scalars are copied.
+    (M5) A particle on planes P (its position's coordinate 0) is one
+    particle with its images across them: it appears once per code that
+    flips none of P, with the mass 2^|P| m."""
     codes = [0] + [c for c in range(1, 8) if c & mask == c]
+    pos = fields.get("position", fields.get("position_initial"))
+    on = plane_sets(np.asarray(pos), mask) if pos is not None else None
     out = {}
     for name, a in fields.items():
         blocks = []
@@ -306,6 +321,10 @@ def unfold_mirrors(fields, mask):
                         b[:, k] = -b[:, k]
             elif name == "vorticity" and bin(c & 3).count("1") == 1:
                 b = -b
+            if on is not None:
+                if name == "mass":
+                    b = b * np.left_shift(1, [bin(v).count("1") for v in on])
+                b = b[(on & c) == 0]
             blocks.append(b)
         out[name] = np.concatenate(blocks)
     return out
@@ -414,7 +433,13 @@ class Run:
                 import h5py
                 mask, held = mirror_attrs(self.snapshot_attrs(self.snapshots[0]))
                 with h5py.File(self.snapshots[0], "r") as f:
-                    self._n = int(f["position"].shape[0]) * mirror_copies(mask) // held
+                    x = f["position"][...]
+                if held > 1 or mask == 0:
+                    self._n = len(x)
+                else:
+                    # (M5) a particle on k planes stands for 2^-k of the copies
+                    w = 0.5 ** np.array([bin(v).count("1") for v in plane_sets(x, mask)])
+                    self._n = int(round(float(np.sum(w)) * mirror_copies(mask)))
             else:
                 self._n = int(self.nml.get("particles", {}).get("n", 0))
         return self._n

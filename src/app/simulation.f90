@@ -909,8 +909,8 @@ contains
     if (i_bad > 0) then
       what = 'the state is no longer finite'
       do k = 1, 3
-        if (btest(mirror, k - 1) .and. .not. s%parts%x(k, i_bad) > 0) &
-          what = 'a particle reached the mirror plane ' // 'xyz'(k:k) // ' = 0'
+        if (btest(mirror, k - 1) .and. .not. s%parts%x(k, i_bad) >= 0) &
+          what = 'a particle crossed the mirror plane ' // 'xyz'(k:k) // ' = 0'
       end do
       write(error_unit, '(a,i0,a,es12.5,a,i0,a,3es12.4,a,3es12.4,a,es12.4)') &
         'sph: error: ' // what // ' at step ', step, ', t = ', t, &

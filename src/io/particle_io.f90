@@ -6,8 +6,8 @@ module particle_io
   use particle_fields, only: FIELD_TABLE, SNAPSHOT_FIELDS, RESTART_FIELDS, CHECKPOINT_FIELDS
   use particles, only: particles_t, particles_allocate, particles_field, particles_field_i8
   use snapshot_io, only: snapshot_field_t, snapshot_t, snapshot_get_field
-  use mirrors, only: mirror_codes, mirror_copies, image_id, image_code, reflect_column, &
-                     REFLECT_VECTOR
+  use mirrors, only: mirror_codes, image_id, image_code, reflect_column, on_plane, &
+                     plane_weights, REFLECT_VECTOR
   implicit none
   private
   public :: particles_snapshot_fields, particles_from_snapshot, particles_from_checkpoint, &
@@ -130,44 +130,63 @@ contains
   !> (M3) The whole body of a run with mirror planes (mask): the owned
   !> particles, then their reflections by each code in ascending order,
   !> every registered field reflected by its kind (vectors flip the code's
-  !> components, the id becomes the image's, scalars are copied).
+  !> components, the id becomes the image's, scalars are copied).  (M5) A
+  !> particle on planes P is one particle with its images across them: it
+  !> appears once per code that flips none of P, with the mass 2^|P| m.
   subroutine particles_whole_body(parts, mask, whole)
     type(particles_t), intent(in), target :: parts
     integer, intent(in) :: mask
     type(particles_t), intent(out), target :: whole
-    integer, allocatable :: codes(:)
+    integer, allocatable :: codes(:), on(:), rows(:)
     real(wp), pointer, contiguous :: a(:, :), b(:, :)
     integer(i8), pointer, contiguous :: ia(:), ib(:)
-    integer :: n, c, f, i, first
+    integer :: n, c, f, i, k, nw, first
     n = parts%n
     codes = [0, mirror_codes(mask)]
-    call particles_allocate(whole, parts%dim, max(n * mirror_copies(mask), 1))
-    whole%n = n * mirror_copies(mask)
-    do f = 1, size(FIELD_TABLE)
-      do c = 1, size(codes)
-        first = (c - 1) * n
+    allocate(on(n))
+    on = 0
+    do k = 1, 3
+      if (.not. btest(mask, k - 1)) cycle
+      where (on_plane(parts%x(k, 1:n))) on = ibset(on, k - 1)
+    end do
+    nw = 0
+    do c = 1, size(codes)
+      nw = nw + count(iand(on, codes(c)) == 0)
+    end do
+    call particles_allocate(whole, parts%dim, max(nw, 1))
+    whole%n = nw
+    first = 0
+    do c = 1, size(codes)
+      rows = pack([(i, i = 1, n)], iand(on, codes(c)) == 0)
+      do f = 1, size(FIELD_TABLE)
         if (FIELD_TABLE(f)%integer8) then
           ia => particles_field_i8(parts, f)
           ib => particles_field_i8(whole, f)
-          ib(first + 1:first + n) = image_id(ia(1:n), codes(c))
+          ib(first + 1:first + size(rows)) = image_id(ia(rows), codes(c))
         else
           a => particles_field(parts, f)
           b => particles_field(whole, f)
-          b(:, first + 1:first + n) = a(:, 1:n)
+          b(:, first + 1:first + size(rows)) = a(:, rows)
           if (FIELD_TABLE(f)%ncomp == 3) then
-            do i = first + 1, first + n
+            do i = first + 1, first + size(rows)
               call reflect_column(REFLECT_VECTOR, codes(c), b(:, i))
             end do
           end if
         end if
       end do
+      whole%m(first + 1:first + size(rows)) = whole%m(first + 1:first + size(rows)) / &
+                                              plane_weights(parts%x(:, rows), mask)
+      first = first + size(rows)
     end do
   end subroutine particles_whole_body
 
   !> Keeps the owned particles that are no image (a snapshot written with
-  !> output.mirror holds the part's reflections too), in their order.
-  subroutine particles_drop_images(parts)
+  !> output.mirror holds the part's reflections too), in their order; (M5)
+  !> one on planes gets back its share of the mass, 2^-|P| (mask: the
+  !> planes).
+  subroutine particles_drop_images(parts, mask)
     type(particles_t), intent(inout), target :: parts
+    integer, intent(in) :: mask
     real(wp), pointer, contiguous :: a(:, :)
     integer(i8), pointer, contiguous :: ia(:)
     logical, allocatable :: keep(:)
@@ -186,6 +205,7 @@ contains
       end if
     end do
     parts%n = nk
+    parts%m(1:nk) = parts%m(1:nk) * plane_weights(parts%x(:, 1:nk), mask)
   end subroutine particles_drop_images
 
 end module particle_io

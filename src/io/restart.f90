@@ -122,7 +122,7 @@ contains
       return
     end if
     ! a whole-body snapshot (output.mirror): the part is the rows of no image
-    if (copies > 1) call particles_drop_images(parts)
+    if (copies > 1) call particles_drop_images(parts, run_mask)
     if (inf%checkpoint) then
       call particles_from_checkpoint(snap, dim, parts, ok, missing)
       if (.not. ok) then

@@ -219,7 +219,9 @@ contains
   end function fitted_semi_axes
 
   !> The first particle whose state is not finite or whose density is not
-  !> positive, or that reached a mirror plane (0 when all are sound).
+  !> positive, or that is across a mirror plane (0 when all are sound; M4
+  !> trades one that crossed in a step for its image, M5 lets one lie on
+  !> a plane).
   function find_bad_particle(parts, mirror) result(i_bad)
     type(particles_t), intent(in) :: parts
     integer, intent(in), optional :: mirror
