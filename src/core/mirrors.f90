@@ -1,7 +1,7 @@
-!> Mirror symmetry planes through the origin (doc/symmetry.md, M1-M3).
+!> Mirror symmetry planes through the origin (doc/symmetry.md, M1-M5).
 !>
-!> A run with planes holds the part x_k > 0 of the body on each mirrored
-!> axis k.  A mask names the planes (bit 0: x = 0, bit 1: y = 0, bit 2:
+!> A run with planes holds the part x_k >= 0 of the body on each mirrored
+!> axis k; a particle on a plane is one with its images there (M5).  A mask names the planes (bit 0: x = 0, bit 1: y = 0, bit 2:
 !> z = 0); a code, a nonzero submask of it, names a reflection: the one
 !> that flips the axes in the code.  Each particle within the list radius
 !> of the planes gets an image per code, made by the halo (halo_exchange):

@@ -18,10 +18,11 @@
 !> others: the set-up is distributed, no rank holds all particles.
 !>
 !> With mirror planes (mirrors) 'lattice' and 'packed' place the part
-!> x_k > 0 of the body on each mirrored axis k: the lattice points with
+!> x_k >= 0 of the body on each mirrored axis k: the lattice points with
 !> i >= 0 there (every coordinate at least dx/2, none on a plane), whose
-!> reflections are exactly the full lattice; the packing's guess keeps
-!> x_k >= dx/4, and the volumes are those of the whole body's count.
+!> reflections are exactly the full lattice; the packing's guess puts a
+!> coordinate within dx/2 of a plane on it (M5) and keeps the others at
+!> least dx/4 off it.
 module placement
   use kinds, only: wp, pi, i8
   use shares, only: share_range

@@ -134,13 +134,14 @@ module input_params
               'count (within 2 %)'), &
     var_t(G_PARTICLES, 'symmetry', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_SYMMETRY, '', 'mirror planes x = 0, y = 0, z = 0 named by their normals: ' // &
-          'the run holds the part x_k > 0 (doc/symmetry.md)', &
+          'the run holds the part x_k >= 0 (doc/symmetry.md)', &
           doc='mirror planes through the centre, named by their normal axes (`''xyz''`: ' // &
               'the three coordinate planes): the run holds the part of the body with ' // &
-              'x_k > 0 on each, and the particles near a plane see their mirror images ' // &
-              'as neighbours, so that the part moves as the whole body would ' // &
-              '([symmetry.md](symmetry.md)). `n` stays the whole body''s count; the run ' // &
-              'holds n / 2^(planes). circle2d and ellipsoid3d only, with `lattice` or ' // &
+              'x_k >= 0 on each, and the particles near a plane see their mirror images ' // &
+              'as neighbours, so that the part moves as the whole body would; a ' // &
+              'particle may lie on a plane, with its share of the mass (M5, ' // &
+              '[symmetry.md](symmetry.md)). `n` stays the whole body''s count; the run ' // &
+              'holds about n / 2^(planes). circle2d and ellipsoid3d only, with `lattice` or ' // &
               '`packed` and without shifting'), &
     var_t(G_PHYSICS, 'rho0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
           'reference density'), &
