@@ -296,6 +296,12 @@ def plane_sets(x, mask):
     return on
 
 
+def plane_weights(x, mask):
+    """(M5) Each particle's weight: 2^-k on k of the planes of `mask`."""
+    on = plane_sets(x, mask)
+    return 0.5 ** sum((on >> k) & 1 for k in range(3))
+
+
 def unfold_mirrors(fields, mask):
     """The whole body from the part of a run with mirror planes (M3): the
     part, then its reflection by each nonzero submask (code) of mask in
@@ -307,7 +313,9 @@ def unfold_mirrors(fields, mask):
     flips none of P, with the mass 2^|P| m."""
     codes = [0] + [c for c in range(1, 8) if c & mask == c]
     pos = fields.get("position", fields.get("position_initial"))
-    on = plane_sets(np.asarray(pos), mask) if pos is not None else None
+    on = w = None
+    if pos is not None:
+        on, w = plane_sets(np.asarray(pos), mask), plane_weights(np.asarray(pos), mask)
     out = {}
     for name, a in fields.items():
         blocks = []
@@ -323,7 +331,7 @@ def unfold_mirrors(fields, mask):
                 b = -b
             if on is not None:
                 if name == "mass":
-                    b = b * np.left_shift(1, [bin(v).count("1") for v in on])
+                    b = b / w
                 b = b[(on & c) == 0]
             blocks.append(b)
         out[name] = np.concatenate(blocks)
@@ -438,8 +446,8 @@ class Run:
                     self._n = len(x)
                 else:
                     # (M5) a particle on k planes stands for 2^-k of the copies
-                    w = 0.5 ** np.array([bin(v).count("1") for v in plane_sets(x, mask)])
-                    self._n = int(round(float(np.sum(w)) * mirror_copies(mask)))
+                    self._n = int(round(float(np.sum(plane_weights(x, mask)))
+                                        * mirror_copies(mask)))
             else:
                 self._n = int(self.nml.get("particles", {}).get("n", 0))
         return self._n

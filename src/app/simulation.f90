@@ -441,7 +441,6 @@ contains
     dx = packed_volume(dim, radius, nint(par_sum(env, real(s%parts%n, wp)), i8) * &
                        mirror_copies(problem%mirror))**(1 / real(dim, wp))
     call plane_volumes(env, problem, s%parts)
-    s%parts%rho(1:s%parts%n) = 1
     call problem%initial_state(s%eos, s%parts)
   end subroutine read_packed
 

@@ -1,8 +1,8 @@
 !> Mirror symmetry planes through the origin (doc/symmetry.md, M1-M5).
 !>
 !> A run with planes holds the part x_k >= 0 of the body on each mirrored
-!> axis k; a particle on a plane is one with its images there (M5).  A mask names the planes (bit 0: x = 0, bit 1: y = 0, bit 2:
-!> z = 0); a code, a nonzero submask of it, names a reflection: the one
+!> axis k; a particle on a plane is one with its images there (M5).  A
+!> mask names the planes (bit 0: x = 0, bit 1: y = 0, bit 2: z = 0); a code, a nonzero submask of it, names a reflection: the one
 !> that flips the axes in the code.  Each particle within the list radius
 !> of the planes gets an image per code, made by the halo (halo_exchange):
 !> positions and polar vectors flip the code's components, scalars are
@@ -15,8 +15,8 @@ module mirrors
   implicit none
   private
   public :: mirror_mask, mirror_word, mirror_copies, mirror_codes, mirror_signs, reflect, &
-            image_id, original_id, image_code, plane_distance2, reflect_column, plane_weights, on_plane, &
-            IMAGE_ID_STRIDE, REFLECT_SCALAR, REFLECT_VECTOR, REFLECT_SYM6, REFLECT_PSEUDO
+            image_id, original_id, image_code, plane_distance2, reflect_column, on_plane, &
+            planes_on, plane_weights, hold_normal, IMAGE_ID_STRIDE, REFLECT_SCALAR, REFLECT_VECTOR, REFLECT_SYM6, REFLECT_PSEUDO
 
   !> ids of images: id + code IMAGE_ID_STRIDE (particle ids stay below 2^31)
   integer(i8), parameter :: IMAGE_ID_STRIDE = 2_i8**32
@@ -156,6 +156,17 @@ contains
     on_plane = .not. (abs(c) > 0)
   end function on_plane
 
+  !> (M5) The planes of mask a particle at x lies on, as a mask.
+  pure integer function planes_on(x, mask) result(on)
+    real(wp), intent(in) :: x(3)
+    integer, intent(in) :: mask
+    integer :: k
+    on = 0
+    do k = 1, 3
+      if (btest(mask, k - 1) .and. on_plane(x(k))) on = ibset(on, k - 1)
+    end do
+  end function planes_on
+
   !> (M5) The weight of each particle: 2^-k for one lying on k of the planes
   !> (x_a = 0 exactly; -0 for an image), 1 otherwise.  A particle on a plane
   !> and its images there coincide: together they are one particle.
@@ -163,14 +174,23 @@ contains
     real(wp), intent(in) :: x(:, :)
     integer, intent(in) :: mask
     real(wp) :: w(size(x, 2))
-    integer :: i, k
-    w = 1
-    do k = 1, 3
-      if (.not. btest(mask, k - 1)) cycle
-      do i = 1, size(x, 2)
-        if (on_plane(x(k, i))) w(i) = 0.5_wp * w(i)
-      end do
+    integer :: i
+    do i = 1, size(x, 2)
+      w(i) = 0.5_wp**popcnt(planes_on(x(:, i), mask))
     end do
   end function plane_weights
+
+  !> (M5) A particle at x on planes of mask moves along them only: the
+  !> normal components of its move (velocity, acceleration) v are 0.
+  pure subroutine hold_normal(x, mask, v)
+    real(wp), intent(in) :: x(3)
+    integer, intent(in) :: mask
+    real(wp), intent(inout) :: v(3)
+    integer :: on, k
+    on = planes_on(x, mask)
+    do k = 1, 3
+      if (btest(on, k - 1)) v(k) = 0
+    end do
+  end subroutine hold_normal
 
 end module mirrors

@@ -6,7 +6,7 @@ module particle_io
   use particle_fields, only: FIELD_TABLE, SNAPSHOT_FIELDS, RESTART_FIELDS, CHECKPOINT_FIELDS
   use particles, only: particles_t, particles_allocate, particles_field, particles_field_i8
   use snapshot_io, only: snapshot_field_t, snapshot_t, snapshot_get_field
-  use mirrors, only: mirror_codes, image_id, image_code, reflect_column, on_plane, &
+  use mirrors, only: mirror_codes, image_id, image_code, reflect_column, planes_on, &
                      plane_weights, REFLECT_VECTOR
   implicit none
   private
@@ -138,17 +138,14 @@ contains
     integer, intent(in) :: mask
     type(particles_t), intent(out), target :: whole
     integer, allocatable :: codes(:), on(:), rows(:)
+    real(wp), allocatable :: w(:)
     real(wp), pointer, contiguous :: a(:, :), b(:, :)
     integer(i8), pointer, contiguous :: ia(:), ib(:)
-    integer :: n, c, f, i, k, nw, first
+    integer :: n, c, f, i, nw, first
     n = parts%n
     codes = [0, mirror_codes(mask)]
-    allocate(on(n))
-    on = 0
-    do k = 1, 3
-      if (.not. btest(mask, k - 1)) cycle
-      where (on_plane(parts%x(k, 1:n))) on = ibset(on, k - 1)
-    end do
+    on = [(planes_on(parts%x(:, i), mask), i = 1, n)]
+    w = plane_weights(parts%x(:, 1:n), mask)
     nw = 0
     do c = 1, size(codes)
       nw = nw + count(iand(on, codes(c)) == 0)
@@ -174,8 +171,7 @@ contains
           end if
         end if
       end do
-      whole%m(first + 1:first + size(rows)) = whole%m(first + 1:first + size(rows)) / &
-                                              plane_weights(parts%x(:, rows), mask)
+      whole%m(first + 1:first + size(rows)) = whole%m(first + 1:first + size(rows)) / w(rows)
       first = first + size(rows)
     end do
   end subroutine particles_whole_body

@@ -21,7 +21,7 @@ module packing
   use solver, only: solver_t, solver_rebuild
   use decomposition, only: decomp_refresh
   use parallel_env, only: parallel_env_t, par_max, par_sum, par_sum_exact, wall_time
-  use mirrors, only: plane_weights, on_plane
+  use mirrors, only: plane_weights, on_plane, hold_normal
   implicit none
   private
   public :: packing_params_t, packing_report_t, pack_ball, exterior_table_t, &
@@ -263,7 +263,7 @@ contains
           r = norm2(x(:, i))
           if (r > 0) grad(:, i) = grad(:, i) + (level * exterior_slope(tab, r) / r) * x(:, i)
           d = -coef * grad(:, i)
-          call hold_normal(x(:, i), d)
+          call hold_normal(x(:, i), s%dc%halo%mirror, d)
           dn = norm2(d)
           if (dn > dmax_abs) d = d * (dmax_abs / dn)
           v(:, i) = prm%mu * v(:, i) + d
@@ -296,16 +296,6 @@ contains
     rep%wall = wall_time() - t0
 
   contains
-
-    !> A particle on a mirror plane moves along it only.
-    subroutine hold_normal(x, d)
-      real(wp), intent(in) :: x(3)
-      real(wp), intent(inout) :: d(3)
-      integer :: k
-      do k = 1, 3
-        if (btest(s%dc%halo%mirror, k - 1) .and. on_plane(x(k))) d(k) = 0
-      end do
-    end subroutine hold_normal
 
     !> (M5) A particle that comes within dx/4 of a mirror plane (its image
     !> within dx/2) goes onto it, its move along the normal stopped.

@@ -17,7 +17,7 @@ module solver
   use parallel_env, only: parallel_env_t, par_max, wall_time
   use decomposition, only: decomposition_t, decomp_redistribute, decomp_halo_build, &
                            decomp_refresh, decomp_refresh_field, decomp_measure, BALANCE_PAIRS
-  use mirrors, only: REFLECT_SCALAR, REFLECT_VECTOR, REFLECT_SYM6, on_plane
+  use mirrors, only: REFLECT_SCALAR, REFLECT_VECTOR, REFLECT_SYM6, hold_normal
   use integrators, only: integrator_t, integrator_reserve, integrator_stages, integrator_advance
   implicit none
   private
@@ -445,12 +445,9 @@ contains
     type(particles_t), intent(in) :: parts
     integer, intent(in) :: n, mask
     real(wp), intent(inout) :: du(:, :)
-    integer :: i, k
-    do k = 1, 3
-      if (.not. btest(mask, k - 1)) cycle
-      do i = 1, n
-        if (on_plane(parts%x(k, i))) du(k, i) = 0
-      end do
+    integer :: i
+    do i = 1, n
+      call hold_normal(parts%x(:, i), mask, du(:, i))
     end do
   end subroutine hold_on_planes
 
