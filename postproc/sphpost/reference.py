@@ -287,17 +287,19 @@ def _last_logged_time(out_dir):
     return t
 
 
-def complete_checkpoints(out_dir):
+def complete_checkpoints(out_dir, t_log=None):
     """The checkpoints written completely: those before the last step the
-    log reports (Gerris writes an output within its step, so a later step
-    means the file was closed)."""
-    t_log = _last_logged_time(out_dir)
+    log reports, t_log (read from gerris.log unless given; Gerris writes an
+    output within its step, so a later step means the file was closed)."""
+    if t_log is None:
+        t_log = _last_logged_time(out_dir)
     return [c for c in checkpoints(out_dir) if c[0] < t_log]
 
 
-def _prune_checkpoints(out_dir):
-    """Removes all but the last CHECKPOINTS_KEPT complete checkpoints."""
-    for _, path in complete_checkpoints(out_dir)[:-CHECKPOINTS_KEPT]:
+def _prune_checkpoints(out_dir, t_log):
+    """Removes all but the last CHECKPOINTS_KEPT checkpoints complete at the
+    logged step t_log."""
+    for _, path in complete_checkpoints(out_dir, t_log)[:-CHECKPOINTS_KEPT]:
         os.remove(path)
 
 
@@ -383,12 +385,13 @@ def run_gerris(s, out_dir, echo=print, progress_interval=30.0, resume=False):
                 m = _STEP.search(line)
                 if not m:
                     continue
-                _prune_checkpoints(out_dir)
+                t = float(m.group(2))
+                # the step just logged: the checkpoints before it are complete
+                _prune_checkpoints(out_dir, t)
                 now = time.monotonic()
                 if now - last >= progress_interval:
                     last = now
                     note_wall()
-                    t = float(m.group(2))
                     eta = (f"{(now - start) * (t_end - t) / (t - t0):8.1f} s" if t > t0
                            else "unknown")
                     echo(f"  step {int(m.group(1)):7d}  t {t / s.time_unit:8.4f}  "
