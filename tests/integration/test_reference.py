@@ -341,7 +341,7 @@ def test_a_stopped_reference_run_resumes_from_its_checkpoint(tmp_path, monkeypat
     with pytest.raises(sp.PostprocError, match="--partial"):
         ref.analyse(str(twice), echo=say.append)
     # other settings are refused by name
-    with pytest.raises(sp.PostprocError, match="ratio 0.001 not 0.01"):
+    with pytest.raises(sp.PostprocError, match="ratio 0.0001 not 0.01"):
         ref.run_gerris(ref.Setup.from_input("square_vortical", str(ROOT / "input" /
                                                                    "square_vortical.nml"),
                                             level=7, ratio=0.01), str(twice), resume=True)
