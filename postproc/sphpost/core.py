@@ -296,10 +296,15 @@ def plane_sets(x, mask):
     return on
 
 
+def set_weights(on):
+    """(M5) The weights of particles on the plane sets `on` (plane_sets):
+    2^-k on k planes."""
+    return 0.5 ** sum((on >> k) & 1 for k in range(3))
+
+
 def plane_weights(x, mask):
     """(M5) Each particle's weight: 2^-k on k of the planes of `mask`."""
-    on = plane_sets(x, mask)
-    return 0.5 ** sum((on >> k) & 1 for k in range(3))
+    return set_weights(plane_sets(x, mask))
 
 
 def unfold_mirrors(fields, mask):
@@ -315,7 +320,8 @@ def unfold_mirrors(fields, mask):
     pos = fields.get("position", fields.get("position_initial"))
     on = w = None
     if pos is not None:
-        on, w = plane_sets(np.asarray(pos), mask), plane_weights(np.asarray(pos), mask)
+        on = plane_sets(np.asarray(pos), mask)
+        w = set_weights(on)
     out = {}
     for name, a in fields.items():
         blocks = []

@@ -404,7 +404,7 @@ contains
     real(wp), intent(out) :: dx
     logical, intent(out) :: ok
     character(len=:), allocatable :: errmsg
-    real(wp) :: t, vol, r_max, radius, n_file
+    real(wp) :: t, r_max, radius, n_file
     integer :: step, n, dim
     character(len=24) :: count
     dim = s%parts%dim

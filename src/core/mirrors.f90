@@ -2,8 +2,9 @@
 !>
 !> A run with planes holds the part x_k >= 0 of the body on each mirrored
 !> axis k; a particle on a plane is one with its images there (M5).  A
-!> mask names the planes (bit 0: x = 0, bit 1: y = 0, bit 2: z = 0); a code, a nonzero submask of it, names a reflection: the one
-!> that flips the axes in the code.  Each particle within the list radius
+!> mask names the planes (bit 0: x = 0, bit 1: y = 0, bit 2: z = 0); a
+!> code, a nonzero submask of it, names a reflection: the one that flips
+!> the axes in the code.  Each particle within the list radius
 !> of the planes gets an image per code, made by the halo (halo_exchange):
 !> positions and polar vectors flip the code's components, scalars are
 !> copied, symmetric tensors flip their mixed entries (a, b) by s_a s_b.
@@ -16,7 +17,8 @@ module mirrors
   private
   public :: mirror_mask, mirror_word, mirror_copies, mirror_codes, mirror_signs, reflect, &
             image_id, original_id, image_code, plane_distance2, reflect_column, on_plane, &
-            planes_on, plane_weights, hold_normal, IMAGE_ID_STRIDE, REFLECT_SCALAR, REFLECT_VECTOR, REFLECT_SYM6, REFLECT_PSEUDO
+            planes_on, plane_weights, hold_normal, IMAGE_ID_STRIDE, REFLECT_SCALAR, &
+            REFLECT_VECTOR, REFLECT_SYM6, REFLECT_PSEUDO
 
   !> ids of images: id + code IMAGE_ID_STRIDE (particle ids stay below 2^31)
   integer(i8), parameter :: IMAGE_ID_STRIDE = 2_i8**32

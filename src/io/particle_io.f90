@@ -145,7 +145,7 @@ contains
     n = parts%n
     codes = [0, mirror_codes(mask)]
     on = [(planes_on(parts%x(:, i), mask), i = 1, n)]
-    w = plane_weights(parts%x(:, 1:n), mask)
+    w = 0.5_wp**popcnt(on)          ! plane_weights, from the sets just made
     nw = 0
     do c = 1, size(codes)
       nw = nw + count(iand(on, codes(c)) == 0)
