@@ -77,6 +77,48 @@ def velocity_split(run, degree=3):
     return rows
 
 
+#: the band edges of plane_bands, in dx of initial distance from the nearest
+#: coordinate plane (doc/symmetry.md: the packing's layers reach about 1.5 dx)
+PLANE_BAND_EDGES = (0.5, 1.0, 2.0, 4.0, 8.0)
+#: plane_bands groups the particles of initial radius below this (in R) by
+#: their distance from the planes; the rest, near the free surface, apart
+PLANE_BAND_INTERIOR = 0.8
+
+
+def plane_bands(run, edges=PLANE_BAND_EDGES, interior=PLANE_BAND_INTERIOR):
+    """The RMS velocity error of each snapshot by the particles' initial
+    distance d from the nearest coordinate plane through the centre, in dx:
+    for the interior particles (initial radius below `interior` R) those on a
+    plane (d = 0: M5 of doc/symmetry.md), then 0 < d < edges[0], edges[0] <=
+    d < edges[1], ..., d >= edges[-1]; then the other particles and all of
+    them.  A mirror-plane run is taken as its whole body (core.Run.snapshot),
+    a full run at the same planes, so that the two compare band by band.
+    Returns (labels, counts, rows), rows (t, rms per group) in units of
+    A0 R; sum over groups of count rms^2 is all's."""
+    import numpy as np
+    c = run.case
+    labels = (["on a plane", f"(0, {edges[0]:g})"]
+              + [f"[{a:g}, {b:g})" for a, b in zip(edges[:-1], edges[1:])]
+              + [f">= {edges[-1]:g}", f"r0 >= {interior:g}", "all"])
+    counts, rows = None, []
+    for i in range(len(run.snapshots)):
+        s = run.snapshot(i)
+        x0 = s["position_initial"][:, :c.dim] / c.length
+        e2 = np.sum((s["velocity"] - s["velocity_exact"])**2, axis=1) / (c.rate * c.length)**2
+        d = np.min(np.abs(x0), axis=1) / (run.dx / c.length)
+        inner = np.sum(x0**2, axis=1) < interior**2
+        bounds = [0.0] + list(edges) + [math.inf]
+        groups = [inner & (d == 0)]
+        groups += [inner & (d > 0) & (d >= a) & (d < b) for a, b in zip(bounds[:-1], bounds[1:])]
+        groups += [~inner, np.ones(len(d), bool)]
+        n = [int(g.sum()) for g in groups]
+        counts = counts or n
+        rows.append((s["attrs"]["time"],
+                     [math.sqrt(float(e2[g].mean())) if k else math.nan
+                      for g, k in zip(groups, n)]))
+    return labels, counts, rows
+
+
 def command(argv, prog="postproc/errors"):
     """The tool on the arguments argv (without the program name); prints its
     report and returns the exit status.  Raises PostprocError."""
@@ -102,6 +144,11 @@ def command(argv, prog="postproc/errors"):
     ap.add_argument("--velocity-split", action="store_true",
                     help="split each snapshot's RMS velocity error into a smooth part (fit by "
                          "cubic polynomials of the initial positions) and a particle-scale rest")
+    ap.add_argument("--plane-bands", action="store_true",
+                    help="each snapshot's RMS velocity error by the initial distance from the "
+                         "nearest coordinate plane, in dx (interior particles), then near the "
+                         "surface: where a mirror-plane run (particles.symmetry) parts from "
+                         "the full one")
     sp.add_filter_options(ap)
     foreign.add_options(ap)
     args = ap.parse_args(argv)
@@ -109,9 +156,10 @@ def command(argv, prog="postproc/errors"):
     import numpy as np
     run = foreign.open_run(args.run_dir, args)
     c = run.case
-    if isinstance(run, foreign.ForeignRun) and (args.check_snapshots or args.velocity_split):
-        raise sp.PostprocError("--check-snapshots and --velocity-split need an sph run's "
-                               f"snapshots; '{args.run_dir}' is another code's output")
+    if isinstance(run, foreign.ForeignRun) and (args.check_snapshots or args.velocity_split
+                                                or args.plane_bands):
+        raise sp.PostprocError("--check-snapshots, --velocity-split and --plane-bands need an "
+                               f"sph run's snapshots; '{args.run_dir}' is another code's output")
     fc, tw, how = sp.filter_from_args(c, args)
     if c.square:
         return square_report(run, fc, tw, how, args)
@@ -192,6 +240,17 @@ def command(argv, prog="postproc/errors"):
         print(f"{c.time_label:>8} {'total':>9} {'smooth':>9} {'rest':>9}")
         for t, tot, sm, rest in velocity_split(run):
             print(f"{t * c.rate:8.4f} {100 * tot:9.4f} {100 * sm:9.4f} {100 * rest:9.4f}")
+    if args.plane_bands:
+        labels, counts, brows = plane_bands(run)
+        print(f"velocity error by the initial distance d from the nearest coordinate plane, "
+              f"in dx = {run.dx / c.length:.4g} R, of the particles of initial radius below "
+              f"{PLANE_BAND_INTERIOR:g} R; then the others, and all (RMS / (A0 R), %)")
+        w = max(11, max(len(x) for x in labels) + 1)
+        print(f"{c.time_label:>8} " + "".join(f"{x:>{w}}" for x in labels))
+        for t, v in brows:
+            print(f"{t * c.rate:8.4f} " + "".join(f"{100 * x:{w}.4f}" if k else f"{'-':>{w}}"
+                                                  for x, k in zip(v, counts)))
+        print(f"{'count':>8} " + "".join(f"{k:>{w}d}" for k in counts))
     if args.csv:
         import csv
         with open(args.csv, "w", newline="") as f:

@@ -222,3 +222,30 @@ def test_half_disc_has_the_full_runs_errors(scratch):
     # max|axis|, position, velocity, KE, p raw, p filtered
     rel = np.abs(half[2:8] / full[2:8] - 1)
     assert np.all(rel < 0.08), rel
+
+
+def test_plane_bands_split_the_whole_bodys_error(scratch):
+    # postproc/errors --plane-bands on a packed octant: the particles on a
+    # plane are counted as the whole body holds them (a particle of the part
+    # on k planes once per reflection that moves it, 2^(3-k) times), and the
+    # groups split the whole body's mean-square velocity error exactly
+    from sphpost.errors import plane_bands
+    d = scratch("sym_bands") / "run"
+    p = run_sph(["input/ellipsoid3d.nml", "particles.n=8000", "particles.symmetry=xyz",
+                 "run.t_end=0.02", "output.dt=0.01", f"output.dir={d}"], np=2)
+    assert p.returncode == 0, p.out
+    with h5py.File(d / "snap_00000.h5", "r") as f:
+        x0 = f["position_initial"][...]
+    k = np.sum(x0 == 0, axis=1)
+    inner = np.sum(x0**2, axis=1) < 0.8**2
+    on_whole = int(np.sum(2.0**(3 - k[(k > 0) & inner])))
+    run = Run(d)
+    labels, counts, rows = plane_bands(run)
+    assert labels[0] == "on a plane" and labels[-1] == "all"
+    assert counts[0] == on_whole > 0, (counts, on_whole)
+    assert sum(counts[:-1]) == counts[-1] == run.n_particles, counts
+    assert len(rows) == 3
+    for t, rms in rows:
+        split = sum(n * r**2 for n, r in zip(counts[:-1], rms[:-1]) if n)
+        assert math.isclose(split, counts[-1] * rms[-1]**2, rel_tol=1e-12), (t, rms)
+        assert rms[-1] > 0
