@@ -259,6 +259,17 @@ def test_every_reader_gives_back_the_errors_put_in(perturbed):
         assert abs(r["final"]["p_filt"] - DP) < 3e-5, (name, r["final"])
 
 
+def test_snapshot_tools_refuse_a_foreign_run(perturbed):
+    # the options that read what only our snapshots hold (initial positions,
+    # exact velocities) refuse another code's run with one line naming them
+    _, runs, _ = perturbed
+    d, _ = runs["csv"]
+    for opt in ("--check-snapshots", "--velocity-split", "--plane-bands"):
+        p = errors("--case", "circle2d", d, opt, check=False)
+        assert p.returncode == 2, (opt, p.returncode, p.stdout, p.stderr)
+        assert "another code's output" in p.stderr and "--plane-bands" in p.stderr, p.stderr
+
+
 def test_units_of_a_run_in_si(tmp_path):
     # the same field with R = 0.25 m, A0 = 4 /s, rho = 1000 kg/m^3: the
     # options give the same relative errors; without them it is refused
