@@ -100,6 +100,7 @@ def plane_bands(run, edges=PLANE_BAND_EDGES, interior=PLANE_BAND_INTERIOR):
     labels = (["on a plane", f"(0, {edges[0]:g})"]
               + [f"[{a:g}, {b:g})" for a, b in zip(edges[:-1], edges[1:])]
               + [f">= {edges[-1]:g}", f"r0 >= {interior:g}", "all"])
+    bounds = [0.0] + list(edges) + [math.inf]
     counts, rows = None, []
     for i in range(len(run.snapshots)):
         s = run.snapshot(i)
@@ -107,7 +108,6 @@ def plane_bands(run, edges=PLANE_BAND_EDGES, interior=PLANE_BAND_INTERIOR):
         e2 = np.sum((s["velocity"] - s["velocity_exact"])**2, axis=1) / (c.rate * c.length)**2
         d = np.min(np.abs(x0), axis=1) / (run.dx / c.length)
         inner = np.sum(x0**2, axis=1) < interior**2
-        bounds = [0.0] + list(edges) + [math.inf]
         groups = [inner & (d == 0)]
         groups += [inner & (d > 0) & (d >= a) & (d < b) for a, b in zip(bounds[:-1], bounds[1:])]
         groups += [~inner, np.ones(len(d), bool)]
