@@ -17,7 +17,7 @@ module mirrors
   private
   public :: mirror_mask, mirror_word, mirror_copies, mirror_codes, mirror_signs, reflect, &
             image_id, original_id, image_code, plane_distance2, reflect_column, on_plane, &
-            planes_on, plane_weights, hold_normal, IMAGE_ID_STRIDE, REFLECT_SCALAR, &
+            planes_on, plane_weights, set_weight, hold_normal, IMAGE_ID_STRIDE, REFLECT_SCALAR, &
             REFLECT_VECTOR, REFLECT_SYM6, REFLECT_PSEUDO
 
   !> ids of images: id + code IMAGE_ID_STRIDE (particle ids stay below 2^31)
@@ -178,9 +178,16 @@ contains
     real(wp) :: w(size(x, 2))
     integer :: i
     do i = 1, size(x, 2)
-      w(i) = 0.5_wp**popcnt(planes_on(x(:, i), mask))
+      w(i) = set_weight(planes_on(x(:, i), mask))
     end do
   end function plane_weights
+
+  !> (M5) The weight of a particle on the planes of the set `on`
+  !> (planes_on): 2^-k on k planes.
+  pure elemental real(wp) function set_weight(on) result(w)
+    integer, intent(in) :: on
+    w = 0.5_wp**popcnt(on)
+  end function set_weight
 
   !> (M5) A particle at x on planes of mask moves along them only: the
   !> normal components of its move (velocity, acceleration) v are 0.

@@ -7,7 +7,7 @@ module particle_io
   use particles, only: particles_t, particles_allocate, particles_field, particles_field_i8
   use snapshot_io, only: snapshot_field_t, snapshot_t, snapshot_get_field
   use mirrors, only: mirror_codes, image_id, image_code, reflect_column, planes_on, &
-                     plane_weights, REFLECT_VECTOR
+                     plane_weights, set_weight, REFLECT_VECTOR
   implicit none
   private
   public :: particles_snapshot_fields, particles_from_snapshot, particles_from_checkpoint, &
@@ -145,7 +145,7 @@ contains
     n = parts%n
     codes = [0, mirror_codes(mask)]
     on = [(planes_on(parts%x(:, i), mask), i = 1, n)]
-    w = 0.5_wp**popcnt(on)          ! plane_weights, from the sets just made
+    w = set_weight(on)
     nw = 0
     do c = 1, size(codes)
       nw = nw + count(iand(on, codes(c)) == 0)
