@@ -101,21 +101,24 @@ def plane_bands(run, edges=PLANE_BAND_EDGES, interior=PLANE_BAND_INTERIOR):
               + [f"[{a:g}, {b:g})" for a, b in zip(edges[:-1], edges[1:])]
               + [f">= {edges[-1]:g}", f"r0 >= {interior:g}", "all"])
     bounds = [0.0] + list(edges) + [math.inf]
-    counts, rows = None, []
+    groups, rows = None, []
     for i in range(len(run.snapshots)):
         s = run.snapshot(i)
-        x0 = s["position_initial"][:, :c.dim] / c.length
+        if groups is None:
+            # by the initial positions: the same particles, sorted by id, in
+            # every snapshot
+            x0 = s["position_initial"][:, :c.dim] / c.length
+            d = np.min(np.abs(x0), axis=1) / (run.dx / c.length)
+            inner = np.sum(x0**2, axis=1) < interior**2
+            groups = [inner & (d == 0)]
+            groups += [inner & (d > 0) & (d >= a) & (d < b)
+                       for a, b in zip(bounds[:-1], bounds[1:])]
+            groups += [~inner, np.ones(len(d), bool)]
+            counts = [int(g.sum()) for g in groups]
         e2 = np.sum((s["velocity"] - s["velocity_exact"])**2, axis=1) / (c.rate * c.length)**2
-        d = np.min(np.abs(x0), axis=1) / (run.dx / c.length)
-        inner = np.sum(x0**2, axis=1) < interior**2
-        groups = [inner & (d == 0)]
-        groups += [inner & (d > 0) & (d >= a) & (d < b) for a, b in zip(bounds[:-1], bounds[1:])]
-        groups += [~inner, np.ones(len(d), bool)]
-        n = [int(g.sum()) for g in groups]
-        counts = counts or n
         rows.append((s["attrs"]["time"],
                      [math.sqrt(float(e2[g].mean())) if k else math.nan
-                      for g, k in zip(groups, n)]))
+                      for g, k in zip(groups, counts)]))
     return labels, counts, rows
 
 
