@@ -71,7 +71,8 @@ INTERFACE_TIMES = {"square_rotation": (1.0, 2.0, 3.0, 4.0),
 # Where the vortical square's cavities are looked for, in t V0/L: the free
 # surface reconnects at about 1.2 (the paper; our SPH runs: 1.195-1.226).
 CAVITY_WINDOW = (1.1, 1.35)
-# The scans' spacing there: the first cavity's time is known to half of it.
+# The scans' spacing there (default; --scan-dt): the first cavity's time is
+# known to half of it.
 CAVITY_DT = 0.0025
 # The reconnection: the first cavity at least this large (in L^2).  The arms
 # touching enclose 0.032 L^2 at once (levels 9 and 10); at 256 cells per L
@@ -112,7 +113,7 @@ class Setup:
 
     def __init__(self, case, side, rate, rho0, t_end, level, ratio=None, light="continue",
                  light_viscosity=0.0, box=8.0, tolerance=1e-6, min_level=4, viscosity=0.0,
-                 tension=0.0):
+                 tension=0.0, scan_dt=CAVITY_DT):
         if case not in CASES:
             raise sp.PostprocError(f"case '{case}': the reference knows {', '.join(CASES)}")
         if ratio is None:
@@ -121,6 +122,7 @@ class Setup:
         self.t_end, self.level, self.ratio, self.light = t_end, level, ratio, light
         self.light_viscosity, self.box, self.tolerance = light_viscosity, box, tolerance
         self.min_level, self.viscosity, self.tension = min_level, viscosity, tension
+        self.scan_dt = scan_dt
         for name, ok, what in (("level", 5 <= level <= 14, "5 <= level <= 14"),
                                ("ratio", 0 < ratio < 1, "0 < ratio < 1"),
                                ("light", light in ("rest", "continue"),
@@ -129,6 +131,7 @@ class Setup:
                                 "light_viscosity >= 0"),
                                ("viscosity", viscosity >= 0, "viscosity >= 0"),
                                ("tension", tension >= 0, "tension >= 0"),
+                               ("scan_dt", 0 < scan_dt <= 0.05, "0 < scan_dt <= 0.05"),
                                ("box", box >= 2, "box >= 2 (in units of the side)")):
             if not ok:
                 raise sp.PostprocError(f"--{name.replace('_', '-')} "
@@ -158,7 +161,8 @@ class Setup:
     def as_dict(self):
         return {k: getattr(self, k) for k in ("case", "side", "rate", "rho0", "t_end", "level",
                                               "ratio", "light", "light_viscosity", "box",
-                                              "tolerance", "min_level", "viscosity", "tension")}
+                                              "tolerance", "min_level", "viscosity", "tension",
+                                              "scan_dt")}
 
     @classmethod
     def from_input(cls, case, path, **kw):
@@ -239,7 +243,7 @@ def gerris_file(s):
         <= s.t_end * (1 + 1e-12))
     if s.case == "square_vortical":
         t0, t1 = (t * s.time_unit for t in CAVITY_WINDOW)
-        outs += (f"  OutputSimulation {{ step = {CAVITY_DT * s.time_unit!r} start = {t0!r} "
+        outs += (f"  OutputSimulation {{ step = {s.scan_dt * s.time_unit!r} start = {t0!r} "
                  f"end = {t1!r} }} scan-%g.txt {{ format = text variables = T }}\n")
     return f"""# {s.case}: reference by postproc/reference (sph), {json.dumps(s.as_dict())}
 1 0 GfsSimulation GfsBox GfsGEdge {{}} {{
@@ -1108,6 +1112,10 @@ def command(argv, prog="postproc/reference"):
     r.add_argument("--tension", type=float, default=0.0,
                    help="surface tension in p_unit L (rho omega^2 L^3, rho V0^2 L): 1/We, "
                    "a regularisation of the Rayleigh-Taylor unstable surface (default 0)")
+    r.add_argument("--scan-dt", type=float, default=CAVITY_DT,
+                   help="the vortical square's cavity scans' spacing in t V0/L over "
+                   f"[{CAVITY_WINDOW[0]:g}, {CAVITY_WINDOW[1]:g}]: the reconnection's time is "
+                   f"known to half of it (default {CAVITY_DT:g})")
     r.add_argument("--box", type=float, default=8.0,
                    help="the side of Gerris's square domain in units of L (default 8)")
     r.add_argument("--dir", help="the output directory (default "
@@ -1138,7 +1146,7 @@ def command(argv, prog="postproc/reference"):
         s = Setup.from_input(args.case, inp, level=args.level, ratio=args.ratio,
                              light=args.light, light_viscosity=args.light_viscosity,
                              box=args.box, viscosity=args.viscosity,
-                             tension=args.tension)
+                             tension=args.tension, scan_dt=args.scan_dt)
         out = args.dir or os.path.join("runs", "reference", args.case, f"level_{args.level}")
         print(f"{prog}: {args.case} at level {args.level} ({1 / s.dx:g} cells per L) in {out}",
               flush=True)

@@ -43,6 +43,11 @@ def test_the_gerris_case_follows_the_input_file(tmp_path):
     text = ref.gerris_file(s)
     assert "probe.dat { 0.5 0.5 0 }" in text and "Time { end = 1.0 }" in text
     assert "scan-%g.txt" in text and "exp(-4.0*4.0" not in text
+    # the cavity scans every 0.0025 L/V0 (L/V0 = 2/3 here) by default, or --scan-dt
+    assert s.time_unit == 2.0 / 3.0
+    assert f"step = {0.0025 * s.time_unit!r} start = {1.1 * s.time_unit!r}" in text
+    s = ref.Setup.from_input("square_vortical", str(nml), level=7, scan_dt=0.0005)
+    assert f"step = {0.0005 * s.time_unit!r} start" in ref.gerris_file(s)
     assert "SourceTension" not in text and "VariableTracerVOF T" in text
     # a surface tension of 1e-4 rho V0^2 L: sigma = 1e-4 * 1 * 9 * 2 = 1.8e-3
     s = ref.Setup.from_input("square_vortical", str(nml), level=7, tension=1e-4)
@@ -54,7 +59,8 @@ def test_the_gerris_case_follows_the_input_file(tmp_path):
 @pytest.mark.parametrize("kw, what", [({"ratio": 2.0}, "--ratio"), ({"level": 3}, "--level"),
                                       ({"light": "moving"}, "--light"),
                                       ({"box": 1.0}, "--box"),
-                                      ({"tension": -1e-4}, "--tension")])
+                                      ({"tension": -1e-4}, "--tension"),
+                                      ({"scan_dt": 0.0}, "--scan-dt")])
 def test_bad_settings_are_refused_by_name(kw, what):
     args = dict(level=8)
     args.update(kw)
