@@ -21,12 +21,12 @@
 !> x_k >= 0 of the body on each mirrored axis k: the lattice points with
 !> i >= 0 there (every coordinate at least dx/2, none on a plane), whose
 !> reflections are exactly the full lattice; the packing's guess puts a
-!> coordinate within dx/2 of a plane on it (M5) and keeps the others at
-!> least dx/4 off it.
+!> point within dx/2 of a plane on the nearest such plane (M5, one at
+!> most) and reflects its other coordinates to the part's side.
 module placement
   use kinds, only: wp, pi, i8
   use shares, only: share_range
-  use mirrors, only: mirror_copies
+  use mirrors, only: mirror_copies, plane_to_join
   implicit none
   private
   public :: place_ball, ball_spacing, PLACE_RINGS, PLACE_LATTICE, PLACE_PACKED, hash_uniform, &
@@ -103,8 +103,8 @@ contains
 
   !> The packing's first guess from the clipped lattice (see the header),
   !> for the particles numbered lo.. of total.
-  !> With planes (mask) the points stay dx/4 off them: a particle on a
-  !> plane would meet its own image.
+  !> With planes (mask) a point near them goes onto the nearest (M5); one
+  !> plane at most, so that none lies on an edge of the part.
   subroutine perturb(dim, radius, dx, lo, total, x, vol, mask)
     integer, intent(in) :: dim, lo, total, mask
     real(wp), intent(in) :: radius, dx
@@ -118,12 +118,13 @@ contains
       end do
       r = norm2(x(:, i))
       if (r > r_max) x(:, i) = x(:, i) * (r_max / r)
-      ! (M5) within PLANE_SNAP dx of a plane: on it; farther off, reflected
-      ! to the part's side
+      ! (M5) reflected to the part's side, then onto the nearest plane
+      ! within PLANE_SNAP dx, if any (one at most)
       do k = 1, dim
-        if (btest(mask, k - 1)) x(k, i) = merge(0.0_wp, abs(x(k, i)), &
-                                                abs(x(k, i)) < PLANE_SNAP * dx)
+        if (btest(mask, k - 1)) x(k, i) = abs(x(k, i))
       end do
+      k = plane_to_join(x(:, i), mask, PLANE_SNAP * dx)
+      if (k > 0) x(k, i) = 0
     end do
     vol = packed_volume(dim, radius, int(total, i8) * mirror_copies(mask))
   end subroutine perturb

@@ -192,7 +192,8 @@ def test_particles_on_the_planes_are_shares_of_one(scratch):
             assert np.allclose(vol, v0, rtol=1e-12, atol=0)
             assert len(np.unique(x, axis=0)) == len(x) == Run(d).n_particles
         else:
-            assert np.any(k == 1) and np.any(k == 2), np.bincount(k)
+            # one plane at most: none on an edge or at the corner
+            assert np.any(k == 1) and np.all(k <= 1), np.bincount(k)
             assert np.allclose(vol, v0 * 0.5**k, rtol=1e-12, atol=0), np.bincount(k)
             # the whole body's count: the copies of the shares (8 % below
             # particles.n at this coarse spacing, 2 % at a million)
