@@ -65,6 +65,7 @@ contains
     integer, intent(in) :: share(2)
     real(wp), allocatable :: x(:, :), vol(:)
     integer :: i, np, place, first, n_total
+    integer(i8) :: n_whole
     select case (particles%placement)
     case ('lattice')
       place = PLACE_LATTICE
@@ -79,13 +80,13 @@ contains
     self%p0 = ellipse_centre_pressure(self%ex)
     dx = ball_spacing(self%dim, self%radius, particles%n, place)
     call place_ball(self%dim, self%radius, dx, place, x, vol, share, first, n_total, &
-                    self%mirror)
+                    self%mirror, n_whole)
     np = size(vol)
     ! packed: equal volumes |Omega|/N, dx the spacing that goes with them
-    ! (N the whole body's: the part's count times the copies)
+    ! (N the whole body's: the part's count times the copies, M5 a point
+    ! on a plane half as often)
     if (place == PLACE_PACKED) then
-      dx = packed_volume(self%dim, self%radius, int(n_total, i8) * mirror_copies(self%mirror)) &
-           **(1 / real(self%dim, wp))
+      dx = packed_volume(self%dim, self%radius, n_whole)**(1 / real(self%dim, wp))
       self%pack_radius = self%radius
     end if
     call particles_allocate(parts, self%dim, max(np, 1))

@@ -20,13 +20,19 @@
 !> With mirror planes (mirrors) 'lattice' and 'packed' place the part
 !> x_k >= 0 of the body on each mirrored axis k: the lattice points with
 !> i >= 0 there (every coordinate at least dx/2, none on a plane), whose
-!> reflections are exactly the full lattice; the packing's guess puts a
-!> point within dx/2 of a plane on the nearest such plane (M5, one at
-!> most) and reflects its other coordinates to the part's side.
+!> reflections are exactly the full lattice.  The packing's guess there
+!> (guess_with_planes) conserves the weight (M5): each plane carries a
+!> lattice of its own, half as dense as a lattice layer (one plane per
+!> point at most), whose points of weight 1/2 stand for the slab within
+!> dx/4 of the plane, and the other points form the lattice shifted dx/4
+!> off the planes, which fills the rest; jittered, they are reflected to
+!> the part's side and kept dx/4 off the planes.  The guess is then
+!> uniform in weight up to the plane, and the packing has no deficit to
+!> spread (doc/symmetry.md, "The start-up dip").
 module placement
   use kinds, only: wp, pi, i8
   use shares, only: share_range
-  use mirrors, only: mirror_copies, plane_to_join
+  use mirrors, only: mirror_copies
   implicit none
   private
   public :: place_ball, ball_spacing, PLACE_RINGS, PLACE_LATTICE, PLACE_PACKED, hash_uniform, &
@@ -34,7 +40,10 @@ module placement
 
   integer, parameter :: PLACE_RINGS = 1, PLACE_LATTICE = 2, PLACE_PACKED = 3
   real(wp), parameter :: PACK_NOISE = 1.0_wp
-  real(wp), parameter :: PLANE_SNAP = 0.5_wp
+  !> (M5) the slab each plane's own points stand for, and the least
+  !> distance of the others from a plane, in dx (the packing's capture
+  !> distance, doc/symmetry.md)
+  real(wp), parameter :: PLANE_SLAB = 0.25_wp
 
 contains
 
@@ -61,25 +70,32 @@ contains
   !> their numbers (r = 0..P-1: numbers floor(r N/P) + 1 .. floor((r+1) N/P)).
   !> first: the number of x(:, 1); n_total: N (of the part with mirror, the
   !> planes' mask; rings have no planes).
-  subroutine place_ball(dim, radius, dx, kind, x, vol, share, first, n_total, mirror)
+  subroutine place_ball(dim, radius, dx, kind, x, vol, share, first, n_total, mirror, n_whole)
     integer, intent(in) :: dim, kind
     real(wp), intent(in) :: radius, dx
     real(wp), allocatable, intent(out) :: x(:, :), vol(:)
     integer, intent(in), optional :: share(2)
     integer, intent(out), optional :: first, n_total
     integer, intent(in), optional :: mirror
-    integer :: total, lo, hi, mask
-    integer(i8) :: first8, last8
+    integer(i8), intent(out), optional :: n_whole
+    integer :: total, lo, hi, mask, n_on
+    integer(i8) :: first8, last8, whole
     mask = 0
     if (present(mirror)) mask = mirror
+    n_on = 0
     if (mask /= 0 .and. kind == PLACE_RINGS) error stop 'place_ball: rings have no mirror planes'
     if (kind == PLACE_RINGS .and. dim == 2) then
       total = rings_2d_count(radius, dx)
     else if (kind == PLACE_RINGS) then
       total = shells_3d_count(radius, dx)
+    else if (kind == PLACE_PACKED .and. mask /= 0) then
+      call guess_with_planes_count(dim, radius, dx, mask, total, n_on)
     else
       total = clipped_lattice_count(dim, radius, dx, mask)
     end if
+    ! the whole body's count: each point once per copy, one on a plane
+    ! (M5, weight 1/2) half as often
+    whole = int(total - n_on, i8) * mirror_copies(mask) + int(n_on, i8) * mirror_copies(mask) / 2
     lo = 1
     hi = total
     if (present(share)) then
@@ -93,41 +109,127 @@ contains
       call rings_2d(radius, dx, lo, hi, x, vol)
     else if (kind == PLACE_RINGS) then
       call shells_3d(radius, dx, lo, hi, x, vol)
+    else if (kind == PLACE_PACKED .and. mask /= 0) then
+      call guess_with_planes(dim, radius, dx, lo, hi, x, vol, mask)
+      call perturb(dim, radius, dx, lo, whole, x, vol, mask)
     else
       call clipped_lattice(dim, radius, dx, lo, hi, x, vol, mask)
-      if (kind == PLACE_PACKED) call perturb(dim, radius, dx, lo, total, x, vol, mask)
+      if (kind == PLACE_PACKED) call perturb(dim, radius, dx, lo, whole, x, vol, mask)
     end if
     if (present(first)) first = lo
     if (present(n_total)) n_total = total
+    if (present(n_whole)) n_whole = whole
   end subroutine place_ball
 
   !> The packing's first guess from the clipped lattice (see the header),
-  !> for the particles numbered lo.. of total.
-  !> With planes (mask) a point near them goes onto the nearest (M5); one
-  !> plane at most, so that none lies on an edge of the part.
-  subroutine perturb(dim, radius, dx, lo, total, x, vol, mask)
-    integer, intent(in) :: dim, lo, total, mask
+  !> for the particles numbered lo.., each of the volume of the whole body's
+  !> count n_whole.  With planes (mask) a point
+  !> of a plane's own lattice moves along that plane only; every point is
+  !> reflected to the part's side, and one on no plane is kept PLANE_SLAB dx
+  !> off each plane (reflected about that distance: the count is kept).
+  subroutine perturb(dim, radius, dx, lo, n_whole, x, vol, mask)
+    integer, intent(in) :: dim, lo, mask
+    integer(i8), intent(in) :: n_whole
     real(wp), intent(in) :: radius, dx
     real(wp), intent(inout) :: x(:, :), vol(:)
-    real(wp) :: r, r_max
-    integer :: i, k
+    real(wp) :: r, r_max, keep
+    integer :: i, k, own
     r_max = radius - 0.25_wp * dx
+    keep = PLANE_SLAB * dx
     do i = 1, size(vol)
+      own = 0
       do k = 1, dim
+        if (btest(mask, k - 1) .and. .not. abs(x(k, i)) > 0) own = k
+      end do
+      do k = 1, dim
+        if (k == own) cycle
         x(k, i) = x(k, i) + PACK_NOISE * dx * (2 * hash_uniform(lo + i - 1, k) - 1)
       end do
       r = norm2(x(:, i))
       if (r > r_max) x(:, i) = x(:, i) * (r_max / r)
-      ! (M5) reflected to the part's side, then onto the nearest plane
-      ! within PLANE_SNAP dx, if any (one at most)
       do k = 1, dim
-        if (btest(mask, k - 1)) x(k, i) = abs(x(k, i))
+        if (.not. btest(mask, k - 1) .or. k == own) cycle
+        x(k, i) = abs(x(k, i))
+        if (own == 0 .and. x(k, i) < keep) x(k, i) = 2 * keep - x(k, i)
       end do
-      k = plane_to_join(x(:, i), mask, PLANE_SNAP * dx)
-      if (k > 0) x(k, i) = 0
     end do
-    vol = packed_volume(dim, radius, int(total, i8) * mirror_copies(mask))
+    vol = packed_volume(dim, radius, n_whole)
   end subroutine perturb
+
+  !> (M5) The packing's guess with planes (mask), numbers lo..hi (the count
+  !> with lo > hi): first the lattice shifted PLANE_SLAB dx off each plane
+  !> (coordinate (i + 1/2 + PLANE_SLAB) dx, i >= 0, on a mirrored axis),
+  !> then for each mirrored axis k in turn the points of plane k, a lattice
+  !> of spacing a in the other axes with a^(dim-1) = 2 dx^(dim-1), so that
+  !> at weight 1/2 they stand for PLANE_SLAB dx of depth (off the other
+  !> planes: (j + 1/2) a, j >= 0, on a mirrored axis).  Inside the ball.
+  !> total: the count; n_on: of them on a plane.
+  subroutine guess_with_planes(dim, radius, dx, lo, hi, x, vol, mask, total, n_on)
+    integer, intent(in) :: dim, lo, hi, mask
+    real(wp), intent(in) :: radius, dx
+    real(wp), intent(inout) :: x(:, :), vol(:)
+    integer, intent(out), optional :: total, n_on
+    integer :: np, k, seg, n_off
+    real(wp) :: a
+    np = 0
+    call lattice_part(dx, 0, PLANE_SLAB)
+    n_off = np
+    a = dx * 2.0_wp**(1 / real(dim - 1, wp))
+    do seg = 1, dim
+      if (btest(mask, seg - 1)) call lattice_part(a, seg, 0.0_wp)
+    end do
+    if (present(total)) total = np
+    if (present(n_on)) n_on = np - n_off
+  contains
+    !> The lattice of spacing d off the mirrored axes by shift d (fixed:
+    !> coordinate 0 on axis `fixed`, none when 0), numbered on from np.
+    subroutine lattice_part(d, fixed, shift)
+      real(wp), intent(in) :: d, shift
+      integer, intent(in) :: fixed
+      integer :: m, lo3(3), hi3(3), i, j, l
+      real(wp) :: p(3)
+      m = ceiling(radius / d)
+      lo3 = 0
+      hi3 = 0
+      do k = 1, dim
+        lo3(k) = merge(0, -m, btest(mask, k - 1))
+        hi3(k) = m - 1
+      end do
+      if (fixed > 0) then
+        lo3(fixed) = 0
+        hi3(fixed) = 0
+      end if
+      do l = lo3(3), hi3(3)
+        do j = lo3(2), hi3(2)
+          do i = lo3(1), hi3(1)
+            p = [(i + 0.5_wp) * d, (j + 0.5_wp) * d, (l + 0.5_wp) * d]
+            p(dim + 1:) = 0
+            do k = 1, dim
+              if (k == fixed) then
+                p(k) = 0
+              else if (btest(mask, k - 1)) then
+                p(k) = p(k) + shift * d
+              end if
+            end do
+            if (sum(p**2) >= radius**2) cycle
+            np = np + 1
+            if (np >= lo .and. np <= hi) then
+              x(:, np - lo + 1) = p
+              vol(np - lo + 1) = dx**dim
+            end if
+          end do
+        end do
+      end do
+    end subroutine lattice_part
+  end subroutine guess_with_planes
+
+  subroutine guess_with_planes_count(dim, radius, dx, mask, total, n_on)
+    integer, intent(in) :: dim, mask
+    real(wp), intent(in) :: radius, dx
+    integer, intent(out) :: total, n_on
+    real(wp) :: x(3, 0), vol(0)
+    call guess_with_planes(dim, radius, dx, 1, 0, x, vol, mask, total, n_on)
+  end subroutine guess_with_planes_count
 
   !> The volume of each of n packed particles, |Omega|/n (one expression for
   !> the packing and for particles.from, so that both round alike).

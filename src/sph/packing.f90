@@ -21,7 +21,7 @@ module packing
   use solver, only: solver_t, solver_rebuild
   use decomposition, only: decomp_refresh
   use parallel_env, only: parallel_env_t, par_max, par_sum, par_sum_exact, wall_time
-  use mirrors, only: plane_weights, planes_on, plane_to_join, hold_normal
+  use mirrors, only: plane_weights, planes_on, hold_normal
   implicit none
   private
   public :: packing_params_t, packing_report_t, pack_ball, exterior_table_t, &
@@ -297,26 +297,27 @@ contains
 
   contains
 
-    !> (M5) A particle off the planes that comes within dx/4 of one (its
-    !> image within dx/2) goes onto the nearest, its move along the normal
-    !> stopped; one on a plane stays on it, and one across another plane
-    !> is reflected back, its move along that normal stopped.
+    !> (M5) A particle on a plane stays on it; one across another plane is
+    !> reflected back, and one on no plane is kept dx/4 off each (its image
+    !> dx/2 away), its move along that normal stopped.  No particle joins a
+    !> plane here: one that did would lose half its weight, a deficit the
+    !> packing would draw in from afar (doc/symmetry.md, "The start-up dip").
     logical function off_planes(x, v) result(moved_back)
       real(wp), intent(inout) :: x(3), v(3)
       integer :: k, mask
+      logical :: free
       mask = s%dc%halo%mirror
       moved_back = .false.
-      if (planes_on(x, mask) == 0) then
-        k = plane_to_join(x, mask, 0.25_wp * prm%dx)
-        if (k > 0) then
-          x(k) = 0
+      free = planes_on(x, mask) == 0
+      do k = 1, 3
+        if (.not. btest(mask, k - 1)) cycle
+        if (x(k) < 0) then
+          x(k) = -x(k)
           v(k) = 0
           moved_back = .true.
         end if
-      end if
-      do k = 1, 3
-        if (btest(mask, k - 1) .and. x(k) < 0) then
-          x(k) = -x(k)
+        if (free .and. x(k) < 0.25_wp * prm%dx) then
+          x(k) = 0.25_wp * prm%dx
           v(k) = 0
           moved_back = .true.
         end if
