@@ -17,7 +17,7 @@ module mirrors
   private
   public :: mirror_mask, mirror_word, mirror_copies, mirror_codes, mirror_signs, reflect, &
             image_id, original_id, image_code, plane_distance2, reflect_column, on_plane, &
-            planes_on, plane_to_join, plane_weights, set_weight, hold_normal, IMAGE_ID_STRIDE, REFLECT_SCALAR, &
+            planes_on, plane_weights, set_weight, hold_normal, IMAGE_ID_STRIDE, REFLECT_SCALAR, &
             REFLECT_VECTOR, REFLECT_SYM6, REFLECT_PSEUDO
 
   !> ids of images: id + code IMAGE_ID_STRIDE (particle ids stay below 2^31)
@@ -157,26 +157,6 @@ contains
     real(wp), intent(in) :: c
     on_plane = .not. (abs(c) > 0)
   end function on_plane
-
-  !> (M5) The plane a particle at x off every plane of mask goes onto: the
-  !> axis k of the nearest plane among those with x_k < within (nearer, or
-  !> across it), 0 if none; one plane at most, so that no particle lies on
-  !> an edge of the part, where its images would form a column of
-  !> coincident copies (doc/symmetry.md, "One plane at most").
-  pure integer function plane_to_join(x, mask, within) result(kn)
-    real(wp), intent(in) :: x(3), within
-    integer, intent(in) :: mask
-    integer :: k
-    kn = 0
-    do k = 1, 3
-      if (.not. btest(mask, k - 1) .or. .not. x(k) < within) cycle
-      if (kn == 0) then
-        kn = k
-      else if (abs(x(k)) < abs(x(kn))) then
-        kn = k
-      end if
-    end do
-  end function plane_to_join
 
   !> (M5) The planes of mask a particle at x lies on, as a mask.
   pure integer function planes_on(x, mask) result(on)

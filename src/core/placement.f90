@@ -32,7 +32,7 @@
 module placement
   use kinds, only: wp, pi, i8
   use shares, only: share_range
-  use mirrors, only: mirror_copies
+  use mirrors, only: mirror_copies, on_plane
   implicit none
   private
   public :: place_ball, ball_spacing, PLACE_RINGS, PLACE_LATTICE, PLACE_PACKED, hash_uniform, &
@@ -139,7 +139,7 @@ contains
     do i = 1, size(vol)
       own = 0
       do k = 1, dim
-        if (btest(mask, k - 1) .and. .not. abs(x(k, i)) > 0) own = k
+        if (btest(mask, k - 1) .and. on_plane(x(k, i))) own = k
       end do
       do k = 1, dim
         if (k == own) cycle
@@ -169,58 +169,18 @@ contains
     real(wp), intent(in) :: radius, dx
     real(wp), intent(inout) :: x(:, :), vol(:)
     integer, intent(out), optional :: total, n_on
-    integer :: np, k, seg, n_off
+    integer :: np, seg, n_off
     real(wp) :: a
     np = 0
-    call lattice_part(dx, 0, PLANE_SLAB)
+    call lattice_points(dim, radius, dx, dx, mask, 0, PLANE_SLAB, lo, hi, x, vol, np)
     n_off = np
     a = dx * 2.0_wp**(1 / real(dim - 1, wp))
     do seg = 1, dim
-      if (btest(mask, seg - 1)) call lattice_part(a, seg, 0.0_wp)
+      if (btest(mask, seg - 1)) &
+        call lattice_points(dim, radius, a, dx, mask, seg, 0.0_wp, lo, hi, x, vol, np)
     end do
     if (present(total)) total = np
     if (present(n_on)) n_on = np - n_off
-  contains
-    !> The lattice of spacing d off the mirrored axes by shift d (fixed:
-    !> coordinate 0 on axis `fixed`, none when 0), numbered on from np.
-    subroutine lattice_part(d, fixed, shift)
-      real(wp), intent(in) :: d, shift
-      integer, intent(in) :: fixed
-      integer :: m, lo3(3), hi3(3), i, j, l
-      real(wp) :: p(3)
-      m = ceiling(radius / d)
-      lo3 = 0
-      hi3 = 0
-      do k = 1, dim
-        lo3(k) = merge(0, -m, btest(mask, k - 1))
-        hi3(k) = m - 1
-      end do
-      if (fixed > 0) then
-        lo3(fixed) = 0
-        hi3(fixed) = 0
-      end if
-      do l = lo3(3), hi3(3)
-        do j = lo3(2), hi3(2)
-          do i = lo3(1), hi3(1)
-            p = [(i + 0.5_wp) * d, (j + 0.5_wp) * d, (l + 0.5_wp) * d]
-            p(dim + 1:) = 0
-            do k = 1, dim
-              if (k == fixed) then
-                p(k) = 0
-              else if (btest(mask, k - 1)) then
-                p(k) = p(k) + shift * d
-              end if
-            end do
-            if (sum(p**2) >= radius**2) cycle
-            np = np + 1
-            if (np >= lo .and. np <= hi) then
-              x(:, np - lo + 1) = p
-              vol(np - lo + 1) = dx**dim
-            end if
-          end do
-        end do
-      end do
-    end subroutine lattice_part
   end subroutine guess_with_planes
 
   subroutine guess_with_planes_count(dim, radius, dx, mask, total, n_on)
@@ -359,19 +319,46 @@ contains
     real(wp), intent(in) :: radius, dx
     real(wp), intent(inout) :: x(:, :), vol(:)
     integer, intent(out), optional :: total
-    integer :: m, i, j, k, kz, np, i0, j0, k0
-    real(wp) :: p(3)
-    m = ceiling(radius / dx)
-    kz = merge(m, 0, dim == 3)
-    i0 = merge(0, -m, btest(mask, 0))
-    j0 = merge(0, -m, btest(mask, 1))
-    k0 = merge(0, -kz, btest(mask, 2))
+    integer :: np
     np = 0
-    do k = k0, max(kz - 1, 0)
-      do j = j0, m - 1
-        do i = i0, m - 1
-          p = [(i + 0.5_wp) * dx, (j + 0.5_wp) * dx, 0.0_wp]
-          if (dim == 3) p(3) = (k + 0.5_wp) * dx
+    call lattice_points(dim, radius, dx, dx, mask, 0, 0.0_wp, lo, hi, x, vol, np)
+    if (present(total)) total = np
+  end subroutine clipped_lattice
+
+  !> The lattice points ((i + 1/2) d, ...) inside the ball, i >= 0 on the
+  !> mirrored axes of mask and there shifted by shift d, coordinate 0 on
+  !> axis `fixed` (none when 0), numbered on from np (updated); those
+  !> numbered lo..hi go into x and vol (dx^dim each).
+  subroutine lattice_points(dim, radius, d, dx, mask, fixed, shift, lo, hi, x, vol, np)
+    integer, intent(in) :: dim, mask, fixed, lo, hi
+    real(wp), intent(in) :: radius, d, dx, shift
+    real(wp), intent(inout) :: x(:, :), vol(:)
+    integer, intent(inout) :: np
+    integer :: m, lo3(3), hi3(3), i, j, l, k
+    real(wp) :: p(3)
+    m = ceiling(radius / d)
+    lo3 = 0
+    hi3 = 0
+    do k = 1, dim
+      lo3(k) = merge(0, -m, btest(mask, k - 1))
+      hi3(k) = m - 1
+    end do
+    if (fixed > 0) then
+      lo3(fixed) = 0
+      hi3(fixed) = 0
+    end if
+    do l = lo3(3), hi3(3)
+      do j = lo3(2), hi3(2)
+        do i = lo3(1), hi3(1)
+          p = [(i + 0.5_wp) * d, (j + 0.5_wp) * d, (l + 0.5_wp) * d]
+          p(dim + 1:) = 0
+          do k = 1, dim
+            if (k == fixed) then
+              p(k) = 0
+            else if (btest(mask, k - 1)) then
+              p(k) = p(k) + shift * d
+            end if
+          end do
           if (sum(p**2) >= radius**2) cycle
           np = np + 1
           if (np >= lo .and. np <= hi) then
@@ -381,8 +368,7 @@ contains
         end do
       end do
     end do
-    if (present(total)) total = np
-  end subroutine clipped_lattice
+  end subroutine lattice_points
 
   integer function clipped_lattice_count(dim, radius, dx, mask) result(total)
     integer, intent(in) :: dim, mask
