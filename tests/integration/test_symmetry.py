@@ -266,7 +266,7 @@ def test_plane_bands_split_the_whole_bodys_error(scratch):
     # plane are counted as the whole body holds them (a particle of the part
     # on k planes once per reflection that moves it, 2^(3-k) times), and the
     # groups split the whole body's mean-square velocity error exactly
-    from sphpost.errors import plane_bands
+    from sphpost.errors import plane_bands, plane_band_pressure
     d = scratch("sym_bands") / "run"
     p = run_sph(["input/ellipsoid3d.nml", "particles.n=8000", "particles.symmetry=xyz",
                  "run.t_end=0.02", "output.dt=0.01", f"output.dir={d}"], np=2)
@@ -286,3 +286,20 @@ def test_plane_bands_split_the_whole_bodys_error(scratch):
         split = sum(n * r**2 for n, r in zip(counts[:-1], rms[:-1]) if n)
         assert math.isclose(split, counts[-1] * rms[-1]**2, rel_tol=1e-12), (t, rms)
         assert rms[-1] > 0
+    # the pressure by the same groups: the groups' means split the whole
+    # body's, and that equals the part's own mean with each particle counted
+    # as often as the whole body holds it (brute force on the part's file)
+    plabels, pcounts, prows = plane_band_pressure(run)
+    assert plabels == labels and pcounts == counts
+    with h5py.File(d / "snap_00000.h5", "r") as f:
+        p0 = float(f.attrs["p_centre_exact"])
+    with h5py.File(d / "snap_00002.h5", "r") as f:
+        e = (f["pressure"][...] - f["pressure_exact"][...]) / p0
+        k2 = np.sum(f["position_initial"][...] == 0, axis=1)
+    whole = np.sum(2.0**(3 - k2) * e) / np.sum(2.0**(3 - k2))
+    t, means = prows[-1]
+    assert math.isclose(means[-1], whole, rel_tol=1e-10, abs_tol=1e-15), (means[-1], whole)
+    assert abs(whole) > 0
+    for t, means in prows:
+        split = sum(n * m for n, m in zip(counts[:-1], means[:-1]) if n)
+        assert math.isclose(split, counts[-1] * means[-1], rel_tol=1e-9, abs_tol=1e-12), t
