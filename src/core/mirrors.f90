@@ -18,7 +18,7 @@ module mirrors
   public :: mirror_mask, mirror_word, mirror_copies, mirror_codes, mirror_signs, reflect, &
             image_id, original_id, image_code, plane_distance2, reflect_column, on_plane, &
             planes_on, plane_weights, set_weight, hold_normal, IMAGE_ID_STRIDE, REFLECT_SCALAR, &
-            REFLECT_VECTOR, REFLECT_SYM6, REFLECT_PSEUDO
+            REFLECT_VECTOR, REFLECT_SYM6, REFLECT_PSEUDO, PLANE_SLAB
 
   !> ids of images: id + code IMAGE_ID_STRIDE (particle ids stay below 2^31)
   integer(i8), parameter :: IMAGE_ID_STRIDE = 2_i8**32
@@ -28,6 +28,11 @@ module mirrors
   !> 2D vorticity: times s_x s_y).
   integer, parameter :: REFLECT_SCALAR = 1, REFLECT_VECTOR = 2, REFLECT_SYM6 = 3, &
                         REFLECT_PSEUDO = 4
+  !> (M5) The slab next to a plane that the points on it stand for, in dx:
+  !> the packing's first guess gives each plane a lattice whose points, at
+  !> weight 1/2, fill it, and the guess and the packing keep every other
+  !> particle this far off each plane (doc/symmetry.md, "The start-up dip").
+  real(wp), parameter :: PLANE_SLAB = 0.25_wp
 
 contains
 

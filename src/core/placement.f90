@@ -32,7 +32,7 @@
 module placement
   use kinds, only: wp, pi, i8
   use shares, only: share_range
-  use mirrors, only: mirror_copies, on_plane
+  use mirrors, only: mirror_copies, on_plane, PLANE_SLAB
   implicit none
   private
   public :: place_ball, ball_spacing, PLACE_RINGS, PLACE_LATTICE, PLACE_PACKED, hash_uniform, &
@@ -40,10 +40,6 @@ module placement
 
   integer, parameter :: PLACE_RINGS = 1, PLACE_LATTICE = 2, PLACE_PACKED = 3
   real(wp), parameter :: PACK_NOISE = 1.0_wp
-  !> (M5) the slab each plane's own points stand for, and the least
-  !> distance of the others from a plane, in dx (the packing's capture
-  !> distance, doc/symmetry.md)
-  real(wp), parameter :: PLANE_SLAB = 0.25_wp
 
 contains
 
@@ -160,9 +156,10 @@ contains
   !> with lo > hi): first the lattice shifted PLANE_SLAB dx off each plane
   !> (coordinate (i + 1/2 + PLANE_SLAB) dx, i >= 0, on a mirrored axis),
   !> then for each mirrored axis k in turn the points of plane k, a lattice
-  !> of spacing a in the other axes with a^(dim-1) = 2 dx^(dim-1), so that
-  !> at weight 1/2 they stand for PLANE_SLAB dx of depth (off the other
-  !> planes: (j + 1/2) a, j >= 0, on a mirrored axis).  Inside the ball.
+  !> of spacing a in the other axes with a^(dim-1) = dx^(dim-1) /
+  !> (2 PLANE_SLAB), so that at weight 1/2 they stand for PLANE_SLAB dx of
+  !> depth (off the other planes: (j + 1/2) a, j >= 0, on a mirrored axis).
+  !> Inside the ball.
   !> total: the count; n_on: of them on a plane.
   subroutine guess_with_planes(dim, radius, dx, lo, hi, x, vol, mask, total, n_on)
     integer, intent(in) :: dim, lo, hi, mask
@@ -174,7 +171,7 @@ contains
     np = 0
     call lattice_points(dim, radius, dx, dx, mask, 0, PLANE_SLAB, lo, hi, x, vol, np)
     n_off = np
-    a = dx * 2.0_wp**(1 / real(dim - 1, wp))
+    a = dx * (0.5_wp / PLANE_SLAB)**(1 / real(dim - 1, wp))
     do seg = 1, dim
       if (btest(mask, seg - 1)) &
         call lattice_points(dim, radius, a, dx, mask, seg, 0.0_wp, lo, hi, x, vol, np)

@@ -21,7 +21,7 @@ module packing
   use solver, only: solver_t, solver_rebuild
   use decomposition, only: decomp_refresh
   use parallel_env, only: parallel_env_t, par_max, par_sum, par_sum_exact, wall_time
-  use mirrors, only: plane_weights, planes_on, hold_normal
+  use mirrors, only: plane_weights, planes_on, hold_normal, PLANE_SLAB
   implicit none
   private
   public :: packing_params_t, packing_report_t, pack_ball, exterior_table_t, &
@@ -298,8 +298,8 @@ contains
   contains
 
     !> (M5) A particle on a plane stays on it; one across another plane is
-    !> reflected back, and one on no plane is kept dx/4 off each (its image
-    !> dx/2 away), its move along that normal stopped.  No particle joins a
+    !> reflected back, and one on no plane is kept PLANE_SLAB dx off each
+    !> (its image twice that away), its move along that normal stopped.  No particle joins a
     !> plane here: one that did would lose half its weight, a deficit the
     !> packing would draw in from afar (doc/symmetry.md, "The start-up dip").
     logical function off_planes(x, v) result(moved_back)
@@ -316,8 +316,8 @@ contains
           v(k) = 0
           moved_back = .true.
         end if
-        if (free .and. x(k) < 0.25_wp * prm%dx) then
-          x(k) = 0.25_wp * prm%dx
+        if (free .and. x(k) < PLANE_SLAB * prm%dx) then
+          x(k) = PLANE_SLAB * prm%dx
           v(k) = 0
           moved_back = .true.
         end if
