@@ -85,24 +85,39 @@ PLANE_BAND_EDGES = (0.5, 1.0, 2.0, 4.0, 8.0)
 PLANE_BAND_INTERIOR = 0.8
 
 
-def _plane_groups(run, snap, edges, interior):
-    """The labels and boolean masks of plane_bands' groups, by the initial
-    positions of the snapshot snap (core.Run.snapshot)."""
+def _plane_band_rows(run, edges, interior):
+    """One pass over the snapshots for plane_bands and plane_band_pressure:
+    (labels, counts, velocity rows, pressure rows), the groups taken from the
+    initial positions of the first snapshot."""
     import numpy as np
     c = run.case
     labels = (["on a plane", f"(0, {edges[0]:g})"]
               + [f"[{a:g}, {b:g})" for a, b in zip(edges[:-1], edges[1:])]
               + [f">= {edges[-1]:g}", f"r0 >= {interior:g}", "all"])
     bounds = [0.0] + list(edges) + [math.inf]
-    # by the initial positions: the same particles, sorted by id, in every
-    # snapshot
-    x0 = snap["position_initial"][:, :c.dim] / c.length
-    d = np.min(np.abs(x0), axis=1) / (run.dx / c.length)
-    inner = np.sum(x0**2, axis=1) < interior**2
-    groups = [inner & (d == 0)]
-    groups += [inner & (d > 0) & (d >= a) & (d < b) for a, b in zip(bounds[:-1], bounds[1:])]
-    groups += [~inner, np.ones(len(d), bool)]
-    return labels, groups
+    groups, vrows, prows = None, [], []
+    for i in range(len(run.snapshots)):
+        s = run.snapshot(i)
+        if groups is None:
+            # by the initial positions: the same particles, sorted by id, in
+            # every snapshot
+            x0 = s["position_initial"][:, :c.dim] / c.length
+            d = np.min(np.abs(x0), axis=1) / (run.dx / c.length)
+            inner = np.sum(x0**2, axis=1) < interior**2
+            groups = [inner & (d == 0)]
+            groups += [inner & (d > 0) & (d >= a) & (d < b)
+                       for a, b in zip(bounds[:-1], bounds[1:])]
+            groups += [~inner, np.ones(len(d), bool)]
+            counts = [int(g.sum()) for g in groups]
+            p0 = float(s["attrs"]["p_centre_exact"])
+        t = s["attrs"]["time"]
+        e2 = np.sum((s["velocity"] - s["velocity_exact"])**2, axis=1) / (c.rate * c.length)**2
+        vrows.append((t, [math.sqrt(float(e2[g].mean())) if k else math.nan
+                          for g, k in zip(groups, counts)]))
+        e = (s["pressure"] - s["pressure_exact"]) / p0
+        prows.append((t, [float(e[g].mean()) if k else math.nan
+                          for g, k in zip(groups, counts)]))
+    return labels, counts, vrows, prows
 
 
 def plane_bands(run, edges=PLANE_BAND_EDGES, interior=PLANE_BAND_INTERIOR):
@@ -115,19 +130,8 @@ def plane_bands(run, edges=PLANE_BAND_EDGES, interior=PLANE_BAND_INTERIOR):
     a full run at the same planes, so that the two compare band by band.
     Returns (labels, counts, rows), rows (t, rms per group) in units of
     A0 R; sum over groups of count rms^2 is all's."""
-    import numpy as np
-    c = run.case
-    groups, rows = None, []
-    for i in range(len(run.snapshots)):
-        s = run.snapshot(i)
-        if groups is None:
-            labels, groups = _plane_groups(run, s, edges, interior)
-            counts = [int(g.sum()) for g in groups]
-        e2 = np.sum((s["velocity"] - s["velocity_exact"])**2, axis=1) / (c.rate * c.length)**2
-        rows.append((s["attrs"]["time"],
-                     [math.sqrt(float(e2[g].mean())) if k else math.nan
-                      for g, k in zip(groups, counts)]))
-    return labels, counts, rows
+    labels, counts, vrows, _ = _plane_band_rows(run, edges, interior)
+    return labels, counts, vrows
 
 
 def plane_band_pressure(run, edges=PLANE_BAND_EDGES, interior=PLANE_BAND_INTERIOR):
@@ -138,18 +142,8 @@ def plane_band_pressure(run, edges=PLANE_BAND_EDGES, interior=PLANE_BAND_INTERIO
     pressure").  Every group moves with the run's acoustic oscillation, so
     the groups compare within a row.  Returns (labels, counts, rows) as
     plane_bands; sum over groups of count mean is all's."""
-    import numpy as np
-    groups, rows, p0 = None, [], None
-    for i in range(len(run.snapshots)):
-        s = run.snapshot(i)
-        if groups is None:
-            labels, groups = _plane_groups(run, s, edges, interior)
-            counts = [int(g.sum()) for g in groups]
-            p0 = float(s["attrs"]["p_centre_exact"])
-        e = (s["pressure"] - s["pressure_exact"]) / p0
-        rows.append((s["attrs"]["time"],
-                     [float(e[g].mean()) if k else math.nan for g, k in zip(groups, counts)]))
-    return labels, counts, rows
+    labels, counts, _, prows = _plane_band_rows(run, edges, interior)
+    return labels, counts, prows
 
 
 def command(argv, prog="postproc/errors"):
@@ -274,7 +268,8 @@ def command(argv, prog="postproc/errors"):
         for t, tot, sm, rest in velocity_split(run):
             print(f"{t * c.rate:8.4f} {100 * tot:9.4f} {100 * sm:9.4f} {100 * rest:9.4f}")
     if args.plane_bands:
-        labels, counts, brows = plane_bands(run)
+        labels, counts, brows, prows = _plane_band_rows(run, PLANE_BAND_EDGES,
+                                                        PLANE_BAND_INTERIOR)
         print(f"velocity error by the initial distance d from the nearest coordinate plane, "
               f"in dx = {run.dx / c.length:.4g} R, of the particles of initial radius below "
               f"{PLANE_BAND_INTERIOR:g} R; then the others, and all (RMS / (A0 R), %)")
@@ -284,7 +279,6 @@ def command(argv, prog="postproc/errors"):
             print(f"{t * c.rate:8.4f} " + "".join(f"{100 * x:{w}.4f}" if k else f"{'-':>{w}}"
                                                   for x, k in zip(v, counts)))
         print(f"{'count':>8} " + "".join(f"{k:>{w}d}" for k in counts))
-        _, _, prows = plane_band_pressure(run)
         print("pressure error by the same groups: mean (p - p_exact) / P(0), %")
         print(f"{c.time_label:>8} " + "".join(f"{x:>{w}}" for x in labels))
         for t, v in prows:
