@@ -714,6 +714,40 @@ def time_mean(t, e):
     return float(np.trapz(e, t) / (t[-1] - t[0]))
 
 
+def window_mean(t, e, a, b):
+    """Time average of e over the window [a, b] (a < b, inside the samples'
+    span): the integral of the piecewise-linear interpolant of the finite
+    samples, the one time_mean's trapezoidal rule integrates, so that the
+    windows' integrals add up to the whole run's."""
+    t = np.asarray(t, float)
+    e = np.asarray(e, float)
+    ok = np.isfinite(e)
+    t, e = t[ok], e[ok]
+    inner = (t > a) & (t < b)
+    tw = np.concatenate(([a], t[inner], [b]))
+    ew = np.concatenate(([np.interp(a, t, e)], e[inner], [np.interp(b, t, e)]))
+    return float(np.trapz(ew, tw) / (b - a))
+
+
+def windowed_errors(res, edges):
+    """The time means of stretching_errors' absolute errors (res) over the
+    windows [edges[k], edges[k + 1]] (run time, increasing, within the run):
+    where in the run an error is made.  Returns a list of (a, b, {name:
+    mean}) with the names of res['mean'] but the bias and the floor."""
+    t = res["time"]
+    ser = res["series"]
+    rows = []
+    for a, b in zip(edges[:-1], edges[1:]):
+        m = {n: window_mean(t, np.abs(ser[n]), a, b) for n in res["names"] if n != "p_raw"}
+        if res["probe"] is not None:
+            tp, eraw = res["raw"]
+            tu, ef = res["filtered"][:2]
+            m["p_raw"] = window_mean(tp, np.abs(eraw), a, b)
+            m["p_filt"] = window_mean(tu, np.abs(ef), a, b)
+        rows.append((float(a), float(b), m))
+    return rows
+
+
 DIP_WINDOW = 0.05   # t A0 below which the start-up dip of the centre pressure is read
 
 
@@ -732,6 +766,8 @@ def stretching_errors(run, f_cut, transition):
           the filter applied to the exact curve minus the exact curve (its
           own rounding of a smooth signal at the ends, which filtering the
           error leaves out);
+      'raw': (tp, e_raw), the probe's own times and its raw error
+          (p - P(t))/P(0) there;
       'mean': time averages (trapezoidal, over [0, t_end]) of the absolute
           errors; 'sample_mean': plain averages over rows, as the solver's
           closing summary computes them; 'final': the last row's values;
@@ -773,6 +809,7 @@ def stretching_errors(run, f_cut, transition):
         tu, _, ef = lowpass(tp, eraw, f_cut, transition)
         _, pu, pexf = lowpass(tp, pexp, f_cut, transition, dt=tu[1] - tu[0])
         out["filtered"] = (tu, ef, pu / p0, (pexf - pu) / p0)
+        out["raw"] = (tp, eraw)
     names = [f"axis_{k}" for k in range(1, dim + 1)] + ["axis_max", "pos", "vel", "ke"]
     names = [n for n in names if n not in missing]
     if probe is not None:

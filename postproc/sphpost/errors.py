@@ -146,6 +146,24 @@ def plane_band_pressure(run, edges=PLANE_BAND_EDGES, interior=PLANE_BAND_INTERIO
     return labels, counts, prows
 
 
+def window_edges(text, run):
+    """The edges 0, T1, ..., Tk, t_end in run time of --windows T1,...,Tk
+    (given in the table's unit, t times the case's rate); PostprocError
+    unless they increase strictly inside (0, t_end)."""
+    c = run.case
+    try:
+        inner = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise sp.PostprocError(f"--windows {text}: not a comma-separated list of times")
+    t0, t1 = float(run.time[0]), float(run.time[-1])
+    edges = [t0] + [v / c.rate for v in inner] + [t1]
+    if any(b <= a for a, b in zip(edges[:-1], edges[1:])):
+        raise sp.PostprocError(f"--windows {text}: the times must increase strictly between "
+                               f"{t0 * c.rate:g} and t_end = {t1 * c.rate:g} "
+                               f"({c.time_label})")
+    return edges
+
+
 def command(argv, prog="postproc/errors"):
     """The tool on the arguments argv (without the program name); prints its
     report and returns the exit status.  Raises PostprocError."""
@@ -176,6 +194,10 @@ def command(argv, prog="postproc/errors"):
                          "by the initial distance from the nearest coordinate plane, in dx "
                          "(interior particles), then near the surface: where a mirror-plane "
                          "run (particles.symmetry) parts from the full one")
+    ap.add_argument("--windows", metavar="T1[,T2...]",
+                    help="also the time means over the windows [0, T1], [T1, T2], ..., "
+                         "[Tk, t_end] (times in the table's unit, t A0): where in the run an "
+                         "error is made")
     sp.add_filter_options(ap)
     foreign.add_options(ap)
     args = ap.parse_args(argv)
@@ -189,13 +211,22 @@ def command(argv, prog="postproc/errors"):
                                f"sph run's snapshots; '{args.run_dir}' is another code's output")
     fc, tw, how = sp.filter_from_args(c, args)
     if c.square:
+        if args.windows:
+            raise sp.PostprocError("--windows is for the stretching cases (circle2d, "
+                                   f"ellipsoid3d), not {c.name}")
         return square_report(run, fc, tw, how, args)
+    edges = window_edges(args.windows, run) if args.windows else None
     res = sp.stretching_errors(run, fc, tw)
+    windows = sp.windowed_errors(res, edges) if edges is not None else None
     if args.json:
-        print(json.dumps({"run": run.path, "case": c.name, "n": run.n_particles,
-                          "dx": run.dx, "t_end": float(run.time[-1]), "f_cut": fc,
-                          "mean": res["mean"], "sample_mean": res["sample_mean"],
-                          "final": res["final"], "missing": res["missing"]}, indent=1))
+        js = {"run": run.path, "case": c.name, "n": run.n_particles,
+              "dx": run.dx, "t_end": float(run.time[-1]), "f_cut": fc,
+              "mean": res["mean"], "sample_mean": res["sample_mean"],
+              "final": res["final"], "missing": res["missing"]}
+        if windows is not None:
+            js["windows"] = [{"from": a * c.rate, "to": b * c.rate, "mean": m}
+                             for a, b, m in windows]
+        print(json.dumps(js, indent=1))
         return 0
 
     dim = c.dim
@@ -242,6 +273,13 @@ def command(argv, prog="postproc/errors"):
         print(f"{label:>8} " + " ".join(f"{100 * d[k]:9.4f}" for k in keys_m))
     print("mean: time average of |error| over [0, t_end] (trapezoidal rule); samples: plain "
           "average over the time-series rows, as the solver's closing summary")
+    if windows is not None:
+        print(f"time means over windows of {c.time_label} (the mean's rule on each; weighted "
+              f"by their lengths they add up to the mean)")
+        print(f"{'window':>17} " + " ".join(f"{x:>9}" for x in cols[:len(keys_m)]))
+        for a, b, m in windows:
+            print(f"{f'[{a * c.rate:.4g}, {b * c.rate:.4g}]':>17} "
+                  + " ".join(f"{100 * m[k]:9.4f}" for k in keys_m))
     if has_p:
         print(f"p filt is the filtered error filter(p - P(t)): the filter applied to the exact "
               f"P(t) alone would move it by {100 * res['mean']['p_filt_bias']:.4f} % of P(0) on "

@@ -292,6 +292,34 @@ def test_errors_agree_with_the_solver(tiny_run):
     assert js["n"] == len(h5_ids(d)) and js["case"] == "circle2d"
 
 
+def test_errors_windows_split_the_time_means(tiny_run):
+    # --windows: each window's mean is the trapezoidal rule on the piecewise-
+    # linear interpolant of |error| over it (checked by brute force on a fine
+    # grid of that interpolant), and the windows weighted by their lengths add
+    # up to the whole run's mean (the same rule), for every error
+    d, _ = tiny_run
+    ts = read_timeseries(d / "timeseries.csv")
+    t = np.array(ts["time"])
+    js = json.loads(script("errors", d, "--json", "--windows", "0.13,0.3").stdout)
+    win = js["windows"]
+    assert [(w["from"], w["to"]) for w in win] == [(0.0, 0.13), (0.13, 0.3), (0.3, 0.5)], win
+    for key in js["mean"]:
+        if key in ("p_filt_bias", "slow"):
+            continue
+        whole = sum(w["mean"][key] * (w["to"] - w["from"]) for w in win) / 0.5
+        assert math.isclose(whole, js["mean"][key], rel_tol=1e-12), (key, whole, js["mean"][key])
+    fine = np.linspace(0.13, 0.3, 200001)
+    ref = np.trapz(np.interp(fine, t, np.abs(ts["rms_velocity_error"])), fine) / 0.17
+    # the fine grid's trapezoids are exact but in the cells holding a sample
+    # (a kink of the interpolant): measured 1.8e-12 relative
+    assert math.isclose(win[1]["mean"]["vel"], ref, rel_tol=1e-9), (win[1]["mean"]["vel"], ref)
+    text = script("errors", d, "--windows", "0.25").stdout
+    assert re.search(r"\[0, 0\.25\]\s+\d", text) and re.search(r"\[0\.25, 0\.5\]\s+\d", text), text
+    bad = script("errors", d, "--windows", "0.3,0.2", check=False)
+    assert bad.returncode == 2 and "--windows 0.3,0.2: the times must increase" in bad.stderr, \
+        bad.stderr
+
+
 def h5_ids(d):
     import h5py
     with h5py.File(d / "snap_00000.h5", "r") as f:
