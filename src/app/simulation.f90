@@ -366,6 +366,7 @@ contains
     if (run%problem%pack_radius > 0 .and. len_trim(cfg%particles%from) == 0 .and. &
         len_trim(cfg%run%restart) == 0) then
       run%pack%radius = run%problem%pack_radius
+      run%pack%slab = run%problem%pack_slab
       run%pack%dx = dx
       run%pack%max_iterations = cfg%particles%pack_iterations
       call pack_ball(s, env, run%pack, run%pack_report)

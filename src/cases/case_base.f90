@@ -13,6 +13,7 @@ module case_base
   use particles, only: particles_t, particles_permute
   use shares, only: share_range
   use parallel_env, only: parallel_env_t
+  use mirrors, only: PLANE_SLAB
   implicit none
   private
   public :: case_t, case_fields_t, case_flow_t, case_slot_t, keep_share
@@ -46,6 +47,8 @@ module case_base
     !> (doc/packing.md) in the ball of this radius, after which
     !> initial_state sets the physical state at the packed positions
     real(wp) :: pack_radius = 0
+    !> the packing's slab of each axis's plane, in dx (M5, M6)
+    real(wp) :: pack_slab(3) = PLANE_SLAB
   contains
     procedure :: initial_state => no_initial_state
     procedure(vars_i), deferred :: vars

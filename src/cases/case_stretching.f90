@@ -13,7 +13,7 @@ module case_stretching
   use kernels, only: kernel_t
   use particles, only: particles_t, particles_allocate
   use placement, only: place_ball, ball_spacing, packed_volume
-  use mirrors, only: mirror_copies
+  use mirrors, only: mirror_copies, plane_slabs
   use eos, only: eos_t, eos_density
   use exact_ellipse, only: ellipse_exact_t, ellipse_exact_init, ellipse_exact_at, &
                            ellipse_centre_pressure, ellipse_map, ellipse_velocity, &
@@ -79,8 +79,10 @@ contains
                             self%a0 * self%rates(1:self%dim))
     self%p0 = ellipse_centre_pressure(self%ex)
     dx = ball_spacing(self%dim, self%radius, particles%n, place)
+    ! (M6) a plane the flow approaches gets the deeper slab
+    self%pack_slab = plane_slabs(self%rates)
     call place_ball(self%dim, self%radius, dx, place, x, vol, share, first, n_total, &
-                    self%mirror, n_whole)
+                    self%mirror, n_whole, self%pack_slab)
     np = size(vol)
     ! packed: equal volumes |Omega|/N, dx the spacing that goes with them
     ! (N the whole body's: the part's count times the copies, M5 a point

@@ -18,7 +18,8 @@ module mirrors
   public :: mirror_mask, mirror_word, mirror_copies, mirror_codes, mirror_signs, reflect, &
             image_id, original_id, image_code, plane_distance2, reflect_column, on_plane, &
             planes_on, plane_weights, set_weight, hold_normal, IMAGE_ID_STRIDE, REFLECT_SCALAR, &
-            REFLECT_VECTOR, REFLECT_SYM6, REFLECT_PSEUDO, PLANE_SLAB
+            REFLECT_VECTOR, REFLECT_SYM6, REFLECT_PSEUDO, PLANE_SLAB, PLANE_SLAB_APPROACH, &
+            plane_slabs
 
   !> ids of images: id + code IMAGE_ID_STRIDE (particle ids stay below 2^31)
   integer(i8), parameter :: IMAGE_ID_STRIDE = 2_i8**32
@@ -33,8 +34,24 @@ module mirrors
   !> weight 1/2, fill it, and the guess and the packing keep every other
   !> particle this far off each plane (doc/symmetry.md, "The start-up dip").
   real(wp), parameter :: PLANE_SLAB = 0.25_wp
+  !> (M6) The slab of a plane the flow approaches (its normal rate negative):
+  !> deeper, so that no particle starts within dx/2 of such a plane and none
+  !> faces its own image closer than dx.  A particle and its image cannot
+  !> slide past each other as two particles of the whole body do, and the
+  !> compression normal to the plane brings them together (doc/symmetry.md,
+  !> "M6").
+  real(wp), parameter :: PLANE_SLAB_APPROACH = 0.5_wp
 
 contains
+
+  !> (M6) The slab of each axis's plane for a flow with the initial normal
+  !> rates alpha_k (any scale): PLANE_SLAB_APPROACH where alpha_k < 0, else
+  !> PLANE_SLAB.
+  pure function plane_slabs(rates) result(slab)
+    real(wp), intent(in) :: rates(3)
+    real(wp) :: slab(3)
+    slab = merge(PLANE_SLAB_APPROACH, PLANE_SLAB, rates < 0)
+  end function plane_slabs
 
   !> The mask of a word of the letters x, y, z (each at most once, any
   !> order; 'none' or '' for no plane), -1 if the word is not one.

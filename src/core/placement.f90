@@ -22,11 +22,12 @@
 !> i >= 0 there (every coordinate at least dx/2, none on a plane), whose
 !> reflections are exactly the full lattice.  The packing's guess there
 !> (guess_with_planes) conserves the weight (M5): each plane carries a
-!> lattice of its own, half as dense as a lattice layer (one plane per
-!> point at most), whose points of weight 1/2 stand for the slab within
-!> dx/4 of the plane, and the other points form the lattice shifted dx/4
-!> off the planes, which fills the rest; jittered, they are reflected to
-!> the part's side and kept dx/4 off the planes.  The guess is then
+!> lattice of its own (one plane per point at most), whose points of
+!> weight 1/2 stand for the slab within slab(k) dx of the plane (dx/4, half
+!> a lattice layer; dx/2 where the flow approaches the plane, M6), and the
+!> other points form the lattice shifted slab(k) dx off the planes, which
+!> fills the rest; jittered, they are reflected to the part's side and kept
+!> slab(k) dx off the planes.  The guess is then
 !> uniform in weight up to the plane, and the packing has no deficit to
 !> spread (doc/symmetry.md, "The start-up dip").
 module placement
@@ -66,7 +67,8 @@ contains
   !> their numbers (r = 0..P-1: numbers floor(r N/P) + 1 .. floor((r+1) N/P)).
   !> first: the number of x(:, 1); n_total: N (of the part with mirror, the
   !> planes' mask; rings have no planes).
-  subroutine place_ball(dim, radius, dx, kind, x, vol, share, first, n_total, mirror, n_whole)
+  subroutine place_ball(dim, radius, dx, kind, x, vol, share, first, n_total, mirror, n_whole, &
+                        slab)
     integer, intent(in) :: dim, kind
     real(wp), intent(in) :: radius, dx
     real(wp), allocatable, intent(out) :: x(:, :), vol(:)
@@ -74,10 +76,15 @@ contains
     integer, intent(out), optional :: first, n_total
     integer, intent(in), optional :: mirror
     integer(i8), intent(out), optional :: n_whole
+    !> each axis's plane's slab in dx (M5, M6; PLANE_SLAB by default)
+    real(wp), intent(in), optional :: slab(3)
     integer :: total, lo, hi, mask, n_on
     integer(i8) :: first8, last8, whole
+    real(wp) :: sl(3)
     mask = 0
     if (present(mirror)) mask = mirror
+    sl = PLANE_SLAB
+    if (present(slab)) sl = slab
     n_on = 0
     if (mask /= 0 .and. kind == PLACE_RINGS) error stop 'place_ball: rings have no mirror planes'
     if (kind == PLACE_RINGS .and. dim == 2) then
@@ -85,7 +92,7 @@ contains
     else if (kind == PLACE_RINGS) then
       total = shells_3d_count(radius, dx)
     else if (kind == PLACE_PACKED .and. mask /= 0) then
-      call guess_with_planes_count(dim, radius, dx, mask, total, n_on)
+      call guess_with_planes_count(dim, radius, dx, mask, sl, total, n_on)
     else
       total = clipped_lattice_count(dim, radius, dx, mask)
     end if
@@ -106,11 +113,11 @@ contains
     else if (kind == PLACE_RINGS) then
       call shells_3d(radius, dx, lo, hi, x, vol)
     else if (kind == PLACE_PACKED .and. mask /= 0) then
-      call guess_with_planes(dim, radius, dx, lo, hi, x, vol, mask)
-      call perturb(dim, radius, dx, lo, whole, x, vol, mask)
+      call guess_with_planes(dim, radius, dx, lo, hi, x, vol, mask, sl)
+      call perturb(dim, radius, dx, lo, whole, x, vol, mask, sl)
     else
       call clipped_lattice(dim, radius, dx, lo, hi, x, vol, mask)
-      if (kind == PLACE_PACKED) call perturb(dim, radius, dx, lo, whole, x, vol, mask)
+      if (kind == PLACE_PACKED) call perturb(dim, radius, dx, lo, whole, x, vol, mask, sl)
     end if
     if (present(first)) first = lo
     if (present(n_total)) n_total = total
@@ -121,17 +128,17 @@ contains
   !> for the particles numbered lo.., each of the volume of the whole body's
   !> count n_whole.  With planes (mask) a point
   !> of a plane's own lattice moves along that plane only; every point is
-  !> reflected to the part's side, and one on no plane is kept PLANE_SLAB dx
-  !> off each plane (reflected about that distance: the count is kept).
-  subroutine perturb(dim, radius, dx, lo, n_whole, x, vol, mask)
+  !> reflected to the part's side, and one on no plane is kept its slab
+  !> slab(k) dx off each plane k (reflected about that distance: the count is
+  !> kept).
+  subroutine perturb(dim, radius, dx, lo, n_whole, x, vol, mask, slab)
     integer, intent(in) :: dim, lo, mask
     integer(i8), intent(in) :: n_whole
-    real(wp), intent(in) :: radius, dx
+    real(wp), intent(in) :: radius, dx, slab(3)
     real(wp), intent(inout) :: x(:, :), vol(:)
     real(wp) :: r, r_max, keep
     integer :: i, k, own
     r_max = radius - 0.25_wp * dx
-    keep = PLANE_SLAB * dx
     do i = 1, size(vol)
       own = 0
       do k = 1, dim
@@ -146,6 +153,7 @@ contains
       do k = 1, dim
         if (.not. btest(mask, k - 1) .or. k == own) cycle
         x(k, i) = abs(x(k, i))
+        keep = slab(k) * dx
         if (own == 0 .and. x(k, i) < keep) x(k, i) = 2 * keep - x(k, i)
       end do
     end do
@@ -153,39 +161,40 @@ contains
   end subroutine perturb
 
   !> (M5) The packing's guess with planes (mask), numbers lo..hi (the count
-  !> with lo > hi): first the lattice shifted PLANE_SLAB dx off each plane
-  !> (coordinate (i + 1/2 + PLANE_SLAB) dx, i >= 0, on a mirrored axis),
+  !> with lo > hi): first the lattice shifted slab(k) dx off each plane k
+  !> (coordinate (i + 1/2 + slab(k)) dx, i >= 0, on a mirrored axis k),
   !> then for each mirrored axis k in turn the points of plane k, a lattice
-  !> of spacing a in the other axes with a^(dim-1) = dx^(dim-1) /
-  !> (2 PLANE_SLAB), so that at weight 1/2 they stand for PLANE_SLAB dx of
-  !> depth (off the other planes: (j + 1/2) a, j >= 0, on a mirrored axis).
+  !> of spacing a_k in the other axes with a_k^(dim-1) = dx^(dim-1) /
+  !> (2 slab(k)), so that at weight 1/2 they stand for slab(k) dx of depth
+  !> (off the other planes: (j + 1/2) a_k, j >= 0, on a mirrored axis).
   !> Inside the ball.
   !> total: the count; n_on: of them on a plane.
-  subroutine guess_with_planes(dim, radius, dx, lo, hi, x, vol, mask, total, n_on)
+  subroutine guess_with_planes(dim, radius, dx, lo, hi, x, vol, mask, slab, total, n_on)
     integer, intent(in) :: dim, lo, hi, mask
-    real(wp), intent(in) :: radius, dx
+    real(wp), intent(in) :: radius, dx, slab(3)
     real(wp), intent(inout) :: x(:, :), vol(:)
     integer, intent(out), optional :: total, n_on
     integer :: np, seg, n_off
     real(wp) :: a
     np = 0
-    call lattice_points(dim, radius, dx, dx, mask, 0, PLANE_SLAB, lo, hi, x, vol, np)
+    call lattice_points(dim, radius, dx, dx, mask, 0, slab, lo, hi, x, vol, np)
     n_off = np
-    a = dx * (0.5_wp / PLANE_SLAB)**(1 / real(dim - 1, wp))
     do seg = 1, dim
+      a = dx * (0.5_wp / slab(seg))**(1 / real(dim - 1, wp))
       if (btest(mask, seg - 1)) &
-        call lattice_points(dim, radius, a, dx, mask, seg, 0.0_wp, lo, hi, x, vol, np)
+        call lattice_points(dim, radius, a, dx, mask, seg, [0.0_wp, 0.0_wp, 0.0_wp], lo, hi, &
+                            x, vol, np)
     end do
     if (present(total)) total = np
     if (present(n_on)) n_on = np - n_off
   end subroutine guess_with_planes
 
-  subroutine guess_with_planes_count(dim, radius, dx, mask, total, n_on)
+  subroutine guess_with_planes_count(dim, radius, dx, mask, slab, total, n_on)
     integer, intent(in) :: dim, mask
-    real(wp), intent(in) :: radius, dx
+    real(wp), intent(in) :: radius, dx, slab(3)
     integer, intent(out) :: total, n_on
     real(wp) :: x(3, 0), vol(0)
-    call guess_with_planes(dim, radius, dx, 1, 0, x, vol, mask, total, n_on)
+    call guess_with_planes(dim, radius, dx, 1, 0, x, vol, mask, slab, total, n_on)
   end subroutine guess_with_planes_count
 
   !> The volume of each of n packed particles, |Omega|/n (one expression for
@@ -318,17 +327,18 @@ contains
     integer, intent(out), optional :: total
     integer :: np
     np = 0
-    call lattice_points(dim, radius, dx, dx, mask, 0, 0.0_wp, lo, hi, x, vol, np)
+    call lattice_points(dim, radius, dx, dx, mask, 0, [0.0_wp, 0.0_wp, 0.0_wp], lo, hi, x, &
+                        vol, np)
     if (present(total)) total = np
   end subroutine clipped_lattice
 
   !> The lattice points ((i + 1/2) d, ...) inside the ball, i >= 0 on the
-  !> mirrored axes of mask and there shifted by shift d, coordinate 0 on
+  !> mirrored axes of mask and there shifted by shift(k) d, coordinate 0 on
   !> axis `fixed` (none when 0), numbered on from np (updated); those
   !> numbered lo..hi go into x and vol (dx^dim each).
   subroutine lattice_points(dim, radius, d, dx, mask, fixed, shift, lo, hi, x, vol, np)
     integer, intent(in) :: dim, mask, fixed, lo, hi
-    real(wp), intent(in) :: radius, d, dx, shift
+    real(wp), intent(in) :: radius, d, dx, shift(3)
     real(wp), intent(inout) :: x(:, :), vol(:)
     integer, intent(inout) :: np
     integer :: m, lo3(3), hi3(3), i, j, l, k
@@ -353,7 +363,7 @@ contains
             if (k == fixed) then
               p(k) = 0
             else if (btest(mask, k - 1)) then
-              p(k) = p(k) + shift * d
+              p(k) = p(k) + shift(k) * d
             end if
           end do
           if (sum(p**2) >= radius**2) cycle

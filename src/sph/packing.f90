@@ -44,6 +44,7 @@ module packing
     real(wp) :: mu = 0.8_wp       !< momentum of the heavy ball
     real(wp) :: d_max = 0.1_wp    !< largest move per iteration, in dx
     real(wp) :: tolerance = 1e-4_wp   !< stop when every move is below it (in dx)
+    real(wp) :: slab(3) = PLANE_SLAB  !< each axis's plane's slab, in dx (M5, M6)
   end type packing_params_t
 
   !> What the relaxation did.
@@ -298,7 +299,7 @@ contains
   contains
 
     !> (M5) A particle on a plane stays on it; one across another plane is
-    !> reflected back, and one on no plane is kept PLANE_SLAB dx off each
+    !> reflected back, and one on no plane is kept the plane's slab off each
     !> (its image twice that away), its move along that normal stopped.  No particle joins a
     !> plane here: one that did would lose half its weight, a deficit the
     !> packing would draw in from afar (doc/symmetry.md, "The start-up dip").
@@ -316,8 +317,8 @@ contains
           v(k) = 0
           moved_back = .true.
         end if
-        if (free .and. x(k) < PLANE_SLAB * prm%dx) then
-          x(k) = PLANE_SLAB * prm%dx
+        if (free .and. x(k) < prm%slab(k) * prm%dx) then
+          x(k) = prm%slab(k) * prm%dx
           v(k) = 0
           moved_back = .true.
         end if

@@ -205,8 +205,9 @@ def test_packed_quadrant_is_uniform_to_the_centre(scratch):
     # (M5) the packing keeps the planes' weight: the whole body of a packed
     # quadrant has the same kernel sum Sum_j W_ij V_j (brute force, the
     # input's h = 2 dx) near the centre, where the planes cross, as in a ring
-    # farther out.  Measured at 20,000: -1.9e-4 (inner r < 0.2 R minus the
-    # ring 0.5 to 0.7 R); with the first guess that put the points within
+    # farther out.  Measured at 20,000: -3.7e-5 (inner r < 0.2 R minus the
+    # ring 0.5 to 0.7 R; -1.9e-4 with the slab dx/4 on x = 0 too, before M6);
+    # with the first guess that put the points within
     # dx/2 of a plane on it (half their weight lost) and the packing's capture
     # -1.3e-3 (at 80,000: -4.1e-3 against -3.6e-5 now and +5e-6 for the full
     # run), which made the quadrant's start-up dip 20 % smaller than the full
@@ -241,9 +242,10 @@ def test_half_disc_has_the_full_runs_errors(scratch):
     # circle2d as the input file has it (packed), 5,000 particles to t A0 = 1,
     # on the half x > 0 (the flow compresses along x) and whole: two different
     # packings, so the errors agree statistically.  Measured (postproc/errors,
-    # time means, with the particles on the plane of M5): axis +0.6 %,
-    # position +1.8 %, velocity +2.0 %, KE +5.5 %, p raw +0.1 %, p filtered
-    # +1.2 % relative (at 80,000: KE -10 %, the rest within 4 %); bound 8 %
+    # time means, with the particles on the plane of M5 and its slab dx/2,
+    # M6): axis +0.2 %, position -0.2 %, velocity -0.7 %, KE -1.3 %, p raw
+    # +1.1 %, p filtered -2.1 % relative (with the slab dx/4: +0.6, +1.8,
+    # +2.0, +5.5, +0.1, +1.2 %); bound 8 %
     import subprocess
     means = []
     for planes in ("none", "x"):
