@@ -730,22 +730,14 @@ def window_mean(t, e, a, b):
 
 
 def windowed_errors(res, edges):
-    """The time means of stretching_errors' absolute errors (res) over the
-    windows [edges[k], edges[k + 1]] (run time, increasing, within the run):
-    where in the run an error is made.  Returns a list of (a, b, {name:
-    mean}) with the names of res['mean'] but the bias and the floor."""
-    t = res["time"]
-    ser = res["series"]
-    rows = []
-    for a, b in zip(edges[:-1], edges[1:]):
-        m = {n: window_mean(t, np.abs(ser[n]), a, b) for n in res["names"] if n != "p_raw"}
-        if res["probe"] is not None:
-            tp, eraw = res["raw"]
-            tu, ef = res["filtered"][:2]
-            m["p_raw"] = window_mean(tp, np.abs(eraw), a, b)
-            m["p_filt"] = window_mean(tu, np.abs(ef), a, b)
-        rows.append((float(a), float(b), m))
-    return rows
+    """The time means of stretching_errors' absolute errors (res, its
+    'signals') over the windows [edges[k], edges[k + 1]] (run time,
+    increasing, within the run): where in the run an error is made.
+    Returns a list of (a, b, {name: mean}) with the names of res['mean'] but
+    the bias and the floor."""
+    return [(float(a), float(b), {n: window_mean(ts, np.abs(e), a, b)
+                                  for n, (ts, e) in res["signals"].items()})
+            for a, b in zip(edges[:-1], edges[1:])]
 
 
 DIP_WINDOW = 0.05   # t A0 below which the start-up dip of the centre pressure is read
@@ -766,8 +758,10 @@ def stretching_errors(run, f_cut, transition):
           the filter applied to the exact curve minus the exact curve (its
           own rounding of a smooth signal at the ends, which filtering the
           error leaves out);
-      'raw': (tp, e_raw), the probe's own times and its raw error
-          (p - P(t))/P(0) there;
+      'signals': {name: (times, signed error)} of every error 'mean'
+          averages but the bias and the floor, each on its own times: the
+          time-series rows, the probe's samples (p_raw), the filter's
+          uniform grid (p_filt);
       'mean': time averages (trapezoidal, over [0, t_end]) of the absolute
           errors; 'sample_mean': plain averages over rows, as the solver's
           closing summary computes them; 'final': the last row's values;
@@ -809,20 +803,21 @@ def stretching_errors(run, f_cut, transition):
         tu, _, ef = lowpass(tp, eraw, f_cut, transition)
         _, pu, pexf = lowpass(tp, pexp, f_cut, transition, dt=tu[1] - tu[0])
         out["filtered"] = (tu, ef, pu / p0, (pexf - pu) / p0)
-        out["raw"] = (tp, eraw)
     names = [f"axis_{k}" for k in range(1, dim + 1)] + ["axis_max", "pos", "vel", "ke"]
     names = [n for n in names if n not in missing]
     if probe is not None:
         names.append("p_raw")
-    mean = {n: time_mean(t, np.abs(ser[n])) for n in names}
+    signals = {n: (t, ser[n]) for n in names}
+    if probe is not None:
+        tu, ef, _, bias = out["filtered"]
+        signals["p_raw"] = (tp, eraw)
+        signals["p_filt"] = (tu, ef)
+    mean = {n: time_mean(ts, np.abs(e)) for n, (ts, e) in signals.items()}
     smean = {n: float(np.nanmean(np.abs(ser[n]))) for n in names}
     final = {n: float(ser[n][-1]) for n in names}
     if probe is not None:
-        mean["p_raw"] = time_mean(tp, np.abs(eraw))
         smean["p_raw"] = float(np.nanmean(np.abs(eraw)))
         final["p_raw"] = float(eraw[-1])
-        tu, ef, _, bias = out["filtered"]
-        mean["p_filt"] = time_mean(tu, np.abs(ef))
         smean["p_filt"] = float(np.mean(np.abs(ef)))
         final["p_filt"] = float(ef[-1])
         mean["p_filt_bias"] = time_mean(tu, np.abs(bias))
@@ -833,7 +828,7 @@ def stretching_errors(run, f_cut, transition):
         out["dip"] = float(max(0.0, -np.min(eraw[early]))) if early.any() else 0.0
     out["slow"] = slow_centre_pressure(c, t)
     mean["slow"] = time_mean(t, np.abs(out["slow"]))
-    out.update(mean=mean, sample_mean=smean, final=final, names=names)
+    out.update(mean=mean, sample_mean=smean, final=final, names=names, signals=signals)
     return out
 
 

@@ -180,10 +180,10 @@ contains
     call lattice_points(dim, radius, dx, dx, mask, 0, slab, lo, hi, x, vol, np)
     n_off = np
     do seg = 1, dim
+      if (.not. btest(mask, seg - 1)) cycle
       a = dx * (0.5_wp / slab(seg))**(1 / real(dim - 1, wp))
-      if (btest(mask, seg - 1)) &
-        call lattice_points(dim, radius, a, dx, mask, seg, [0.0_wp, 0.0_wp, 0.0_wp], lo, hi, &
-                            x, vol, np)
+      call lattice_points(dim, radius, a, dx, mask, seg, [0.0_wp, 0.0_wp, 0.0_wp], lo, hi, x, &
+                          vol, np)
     end do
     if (present(total)) total = np
     if (present(n_on)) n_on = np - n_off
