@@ -137,10 +137,20 @@ class Setup:
                 raise sp.PostprocError(f"--{name.replace('_', '-')} "
                                        f"{getattr(self, name)!r}: allowed {what}")
 
+    method = "gerris"
+
     @property
     def dx(self):
         """The finest cell's side, in units of L."""
         return self.box / 2**self.level
+
+    @property
+    def resolution(self):
+        return self.level
+
+    @property
+    def label(self):
+        return f"Gerris, {1 / self.dx:g} cells per L"
 
     @property
     def probe(self):
@@ -554,10 +564,13 @@ def cavities(grid, min_cells=4):
             if k not in border and sz >= min_cells]
 
 
-def write_csv(path, header, rows):
-    """A CSV file written completely or not at all."""
+def write_csv(path, header, rows, comment=None):
+    """A CSV file written completely or not at all (a '#' comment line
+    first, if given)."""
     tmp = path + ".tmp"
     with open(tmp, "w") as f:
+        if comment:
+            f.write(comment.rstrip("\n") + "\n")
         f.write(",".join(header) + "\n")
         for r in rows:
             f.write(",".join(f"{v:.9g}" if isinstance(v, float) else str(v) for v in r) + "\n")
@@ -567,11 +580,24 @@ def write_csv(path, header, rows):
 def read_csv(path):
     if not os.path.isfile(path):
         raise sp.PostprocError(f"{path} is missing: analyse the reference run first")
-    a = np.genfromtxt(path, delimiter=",", names=True)
+    with open(path) as f:
+        skip = 0
+        while f.readline().startswith("#"):
+            skip += 1
+    a = np.genfromtxt(path, delimiter=",", names=True, skip_header=skip)
     return {n: np.atleast_1d(a[n]) for n in a.dtype.names}
 
 
 def load_setup(ref_dir):
+    """A reference directory's settings: a boundary-integral run's
+    (setup.json, sphpost.bem) or a Gerris run's (the first line of sim.gfs)."""
+    bem_json = os.path.join(ref_dir, "setup.json")
+    if os.path.isfile(bem_json):
+        from . import bem
+        with open(bem_json) as f:
+            d = json.load(f)
+        d.pop("method", None)
+        return bem.BemSetup(**d)
     path = os.path.join(ref_dir, "sim.gfs")
     if not os.path.isfile(path):
         raise sp.PostprocError(f"'{ref_dir}' has no sim.gfs: is it a reference run directory?")
@@ -776,6 +802,16 @@ class Reference:
 
     def interface(self, t):
         return read_interface(os.path.join(self.path, f"interface_{t:g}.csv"))
+
+    def interface_times(self):
+        """The times of the interfaces the reference holds, within its
+        analysed interval."""
+        ts = []
+        for name in os.listdir(self.path):
+            m = re.match(r"interface_([0-9.]+)\.csv$", name)
+            if m and float(m.group(1)) <= self.t_end * (1 + 1e-12):
+                ts.append(float(m.group(1)))
+        return sorted(ts)
 
     def cavity_time(self):
         """The reconnection's time (the first cavity of a summary written
@@ -984,9 +1020,7 @@ def compare(run_dir, ref_dir, echo=print, fc=None, transition=sp.DEFAULT_TRANSIT
     h = float(run.nml.get("particles", {}).get("h_over_dx", 2.0)) * dx
     stimes = run.snapshot_times() / tu
     out["interface"] = {}
-    for tk in INTERFACE_TIMES[s.case]:
-        if tk > ref.t_end * (1 + 1e-12):          # a reference run that stopped earlier
-            continue
+    for tk in ref.interface_times():
         k = int(np.argmin(np.abs(stimes - tk))) if len(stimes) else -1
         if k < 0 or abs(stimes[k] - tk) > 1e-6 * max(1.0, tk):
             continue
@@ -1000,8 +1034,8 @@ def compare(run_dir, ref_dir, echo=print, fc=None, transition=sp.DEFAULT_TRANSIT
         out["first_cavity"] = float(t[hit[0]]) if len(hit) else None
         out["first_cavity_reference"] = ref.cavity_time()
     tl = "t omega" if s.case == "square_rotation" else "t V0/L"
-    echo(f"{run.path} against the reference {ref.path} (level {s.level}, "
-         f"{1 / s.dx:g} cells per L); the probe pressure over {tl} in [0, {end:.3g}]:")
+    echo(f"{run.path} against the reference {ref.path} ({s.label}); the probe pressure "
+         f"over {tl} in [0, {end:.3g}]:")
     echo(f"  probe pressure: mean |difference| raw {100 * out['p_raw_mean']:.3f} %, filtered "
          f"{100 * out['p_filtered_mean']:.3f} % (largest {100 * out['p_filtered_max']:.3f} %) "
          "of |p(0)|; filtered over [0, w]: " + ", ".join(
@@ -1028,7 +1062,9 @@ def figure(runs, refs, output, labels=None, dpi=110):
     surfaces at the interface times: the particles and the finest
     reference's interface (Figures 3 and 5).  Written to output (PNG)."""
     plt = sp.use_agg()
-    refs = sorted((Reference(d) for d in refs), key=lambda r: r.setup.level)
+    # the boundary-integral reference, if given, is the principal one
+    refs = sorted((Reference(d) for d in refs), key=lambda r: (r.setup.method == "bem",
+                                                               r.setup.resolution))
     runs = [sp.Run(d) for d in runs]
     if not refs:
         raise sp.PostprocError("give at least one reference directory (--ref)")
@@ -1036,7 +1072,8 @@ def figure(runs, refs, output, labels=None, dpi=110):
     labels = labels or [os.path.basename(r.path.rstrip("/")) for r in runs]
     if len(labels) != len(runs):
         raise sp.PostprocError(f"--labels needs one label per run ({len(runs)})")
-    times = [t for t in INTERFACE_TIMES[s.case] if t <= refs[-1].t_end * (1 + 1e-12)]
+    times = [t for t in refs[-1].interface_times()
+             if t in INTERFACE_TIMES[s.case] or t == refs[-1].interface_times()[-1]]
     fig = plt.figure(figsize=(12, 10))
     gs = fig.add_gridspec(2, len(times), height_ratios=[1.1, 1])
     ax = fig.add_subplot(gs[0, :])
@@ -1044,8 +1081,7 @@ def figure(runs, refs, output, labels=None, dpi=110):
     grey = np.linspace(0.75, 0.0, len(refs))
     for g, r in zip(grey, refs):
         ax.plot(r.pressure["t"], r.pressure["p"], color=str(g), ls="--",
-                lw=1.0 + (r is refs[-1]), label=f"Gerris, {1 / r.setup.dx:g} "
-                "cells per L")
+                lw=1.0 + (r is refs[-1]), label=r.setup.label)
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for k, (run, lab) in enumerate(zip(runs, labels)):
         tu = s.time_unit
@@ -1075,8 +1111,7 @@ def figure(runs, refs, output, labels=None, dpi=110):
         a2.set_aspect("equal")
         a2.set_title(f"{tl} = {tk:g}", fontsize=9)
         a2.tick_params(labelsize=7)
-    fig.suptitle(f"{s.case}: SPH against the Gerris reference (black: "
-                 f"{1 / refs[-1].setup.dx:g} cells per L)")
+    fig.suptitle(f"{s.case}: SPH against the reference (black: {refs[-1].setup.label})")
     fig.tight_layout()
     tmp = output + ".tmp.png"
     fig.savefig(tmp, dpi=dpi)
@@ -1140,7 +1175,58 @@ def command(argv, prog="postproc/reference"):
     pl.add_argument("--ref", nargs="+", required=True, help="reference run directories")
     pl.add_argument("--labels", nargs="+", help="one label per run")
     pl.add_argument("-o", "--output", required=True, help="the PNG file to write")
+    b = sub.add_parser("bem", help="the rotating square by the boundary-integral method "
+                       "(sphpost.bem): the reference the paper compares with")
+    b.add_argument("--input", default=os.path.join("input", "square_rotation.nml"),
+                   help="the case's input file: side, omega, rho0, t_end (default "
+                   "%(default)s)")
+    b.add_argument("--nodes", type=int, default=2048,
+                   help="nodes on the surface, a multiple of 8 (default %(default)s)")
+    b.add_argument("--dt", type=float, default=0.0025,
+                   help="the RK4 step in 1/omega, dividing 0.01 (default %(default)s)")
+    b.add_argument("--t-end", type=float, help="end time in 1/omega (default the input's)")
+    b.add_argument("--n-corner", type=int, default=24,
+                   help="the corners' rounding: the superellipse's exponent (default "
+                   "%(default)s)")
+    b.add_argument("--filter-order", type=int, default=12,
+                   help="the Fourier filter's order (default %(default)s)")
+    b.add_argument("--remap-every", type=int, default=5,
+                   help="steps between redistributions of the nodes (default %(default)s)")
+    b.add_argument("--dir", help="the output directory (default "
+                   "runs/reference/square_rotation/bem_NODES)")
+    bs = sub.add_parser("bem-study", help="the boundary-integral reference's own resolution "
+                        "study (markdown)")
+    bs.add_argument("dirs", nargs="+", help="boundary-integral reference directories")
+    bs.add_argument("--json", help="also write the numbers to this file")
     args = ap.parse_args(argv)
+    if args.verb == "bem":
+        from . import bem
+        s = Setup.from_input("square_rotation", args.input, level=8)
+        t_end = args.t_end if args.t_end is not None else s.t_end
+        try:
+            params = bem.Params(nodes=args.nodes, dt=args.dt, t_end=t_end,
+                                n_corner=args.n_corner, filter_order=args.filter_order,
+                                remap_every=args.remap_every)
+        except ValueError as e:
+            raise sp.PostprocError(str(e))
+        bs_ = bem.BemSetup("square_rotation", s.side, s.rate, s.rho0, t_end, params)
+        out = args.dir or os.path.join("runs", "reference", "square_rotation",
+                                       f"bem_{args.nodes}")
+        print(f"{prog}: square_rotation by boundary integrals in {out}: {params.header()}",
+              flush=True)
+        rec = bem.run(params, echo=lambda m: print(m, flush=True))
+        sm = bem.write_run(rec, bs_, out, SERIES_P0["square_rotation"])
+        print(f"{prog}: {rec.stop_reason}; p_A(0) {100 * sm['p_probe_initial_error']:+.4f} % "
+              f"from the series, area drift {sm['area_drift_max']:.1e}, kinetic energy drift "
+              f"{sm['kinetic_energy_drift_max']:.1e}, {rec.steps} steps, {rec.wall:.0f} s")
+        return 0
+    if args.verb == "bem-study":
+        from . import bem
+        res = bem.study(args.dirs)
+        if args.json:
+            with open(args.json, "w") as f:
+                json.dump(res, f, indent=1)
+        return 0
     if args.verb == "run":
         inp = args.input or os.path.join("input", f"{args.case}.nml")
         s = Setup.from_input(args.case, inp, level=args.level, ratio=args.ratio,
