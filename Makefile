@@ -57,7 +57,7 @@ LIB_OBJ   := $(sort $(addprefix $(BUILD)/,$(addsuffix .o,$(basename $(notdir $(L
 vpath %.f90 $(SRC_DIRS) tests
 vpath %.F90 $(SRC_DIRS)
 
-.PHONY: validate-squares all sph debug asan test unit bench bench-pairloop decomp-study validate validate-long reference input-doc clean
+.PHONY: validate-squares all sph debug asan test unit bench bench-pairloop decomp-study validate validate-long reference reference-bem input-doc clean
 all: sph
 
 # copy then rename: replaces ./sph atomically, even while it is running
@@ -232,6 +232,26 @@ reference:
 	  $(PYTHON) postproc/reference study $(foreach l,$(REFERENCE_LEVELS),runs/reference/$$c/level_$(l)) \
 	    --json runs/reference/$$c/study.json | tee runs/reference/$$c/study.md; \
 	done
+
+# The rotating square by boundary integrals (postproc/reference bem,
+# doc/reference.md): BEM_RUNS (nodes:dt:corner exponent:filter order) into
+# runs/reference/square_rotation/, runs already there reused; then the
+# study, and the finest run cut at its interval of convergence written to
+# postproc/sphpost/data/square_rotation_bem (the reference shipped).
+# Not part of `make test`.
+BEM_DIR := runs/reference/square_rotation
+BEM_RUNS ?= 1024:0.005:24:12 1536:0.005:24:12 2048:0.005:24:12 2048:0.0025:24:12 \
+            2048:0.005:32:12 2048:0.005:24:8
+reference-bem:
+	@for r in $(BEM_RUNS); do \
+	  set -- $$(echo $$r | tr ':' ' '); \
+	  d=$(BEM_DIR)/bem_$$(echo $$r | tr : _); \
+	  [ -f $$d/summary.json ] || $(PYTHON) postproc/reference bem --nodes $$1 --dt $$2 \
+	    --n-corner $$3 --filter-order $$4 --dir $$d || exit 1; \
+	done
+	$(PYTHON) postproc/reference bem-study $(foreach r,$(BEM_RUNS),$(BEM_DIR)/bem_$(subst :,_,$(r))) \
+	  --json $(BEM_DIR)/bem_study.json --ship postproc/sphpost/data/square_rotation_bem \
+	  > $(BEM_DIR)/bem_study.md && cat $(BEM_DIR)/bem_study.md
 
 # Fixed-step benchmarks at 1 and 2 ranks (minutes; needs an idle machine):
 # seconds per step, right-hand sides and particle updates per second, peak

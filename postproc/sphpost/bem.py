@@ -642,8 +642,75 @@ def study(dirs, echo=print, tol=1e-4):
         cells = [f"{g['surfaces'][t][0]:.1e} ({g['surfaces'][t][1]:+.1e})"
                  if t in g["surfaces"] else "" for t in times]
         echo(f"| {os.path.basename(r.path.rstrip('/'))} | {', '.join(what)} | {g['end']:.2f} | "
-             f"{100 * g['p_max']:.5f} % | {g['within']:.2f} | " + " | ".join(cells) + " |")
+             f"{100 * g['p_max']:.1e} % | {g['within']:.2f} | " + " | ".join(cells) + " |")
         out.append({"run": r.path, "differs": what, **{k: v for k, v in g.items()
                                                         if k != "surfaces"},
                     "surfaces": {f"{t:g}": v for t, v in g["surfaces"].items()}})
-    return {"base": base.path, "pairs": out}
+    # the interval of convergence: the finest run against the next one in
+    # nodes with the same step and regularisation
+    same = [r for r in refs if r is not base and all(
+        getattr(r.setup.params, k) == getattr(bp, k) for k in ("dt", "n_corner", "filter_order"))]
+    res = {"base": base.path, "pairs": out}
+    if same:
+        nxt = max(same, key=key)
+        g = next(o for o in out if o["run"] == nxt.path)
+        bad = [float(t) for t, (d, _) in g["surfaces"].items() if d > SURFACE_TOL]
+        until = min([g["within"]] + [t - 0.5 for t in bad])     # the surface before
+        # the surfaces compared are those at or before the end
+        surf = [d for t, (d, _) in g["surfaces"].items() if float(t) <= until + 1e-9]
+        res.update({"converged_until": float(until), "nodes": [nxt.setup.params.nodes, bp.nodes],
+                    "p_max": float(pair_gap(nxt, base, tol)["p_max"] if until >= g["end"]
+                                   else _p_max_until(nxt, base, until)),
+                    "surface_max": float(max(surf)) if surf else float("nan")})
+        echo(f"\nConverged (p_A within {100 * tol:g} % of |p_A(0)| and the surfaces within "
+             f"{SURFACE_TOL:g} L between {nxt.setup.params.nodes} and {bp.nodes} nodes) over "
+             f"t omega in [0, {until:g}]: there p_A differs by at most "
+             f"{100 * res['p_max']:.1e} % and the surfaces by {res['surface_max']:.1e} L.")
+    return res
+
+
+SURFACE_TOL = 1e-4      # the surfaces' bar for convergence, in L
+
+
+def _p_max_until(a, b, until):
+    t = a.pressure["t"]
+    sel = t <= until + 1e-9
+    d = np.abs(a.pressure["p"][sel] - np.interp(t[sel], b.pressure["t"], b.pressure["p"]))
+    return d.max() / abs(a.pressure["p"][0])
+
+
+def ship(ref_dir, out_dir, res, study_text):
+    """The reference as shipped with the package: the run's files cut at
+    the interval of convergence, and the study (study.json, study.md)."""
+    import json
+    import shutil
+    from .reference import read_csv, write_csv
+    until = res["converged_until"]
+    tmp = out_dir.rstrip("/") + ".tmp"
+    shutil.rmtree(tmp, ignore_errors=True)
+    os.makedirs(tmp)
+    for name in sorted(os.listdir(ref_dir)):
+        src = os.path.join(ref_dir, name)
+        m = name.startswith("interface_") and float(name[10:-4]) > until + 1e-9
+        if m or not (name.endswith(".csv") or name.endswith(".json")):
+            continue
+        if name in ("pressure.csv", "integrals.csv", "tips.csv"):
+            with open(src) as f:
+                comment = f.readline().rstrip("\n")
+            d = read_csv(src)
+            keep = d["t"] <= until + 1e-9
+            cols = list(d)
+            write_csv(os.path.join(tmp, name), cols, zip(*(d[c][keep] for c in cols)),
+                      comment=comment)
+        else:
+            shutil.copy(src, tmp)
+    with open(os.path.join(tmp, "summary.json")) as f:
+        sm = json.load(f)
+    sm["converged_until"] = until
+    for name, obj in (("summary.json", sm), ("study.json", res)):
+        with open(os.path.join(tmp, name), "w") as f:
+            json.dump(obj, f, indent=1)
+    with open(os.path.join(tmp, "study.md"), "w") as f:
+        f.write(study_text)
+    shutil.rmtree(out_dir, ignore_errors=True)
+    os.replace(tmp, out_dir)

@@ -319,10 +319,10 @@ def fig_square(args):
                         vmin=vmin, vmax=vmax, rasterized=True)
         if ref is not None:
             # the reference's interface at this time, dashed (the paper's
-            # Figure 3: the BEM free surface; here Gerris's 0.5 contour of T)
+            # Figure 3: the boundary-integral surface, or Gerris's 0.5 contour of T)
             lines = []
-            for tr in reference.INTERFACE_TIMES[c.name]:
-                if abs(snap_t[i] - tr) < 1e-6 * tr and tr <= ref.setup.t_end * (1 + 1e-12):
+            for tr in ref.interface_times():
+                if abs(snap_t[i] - tr) < 1e-6 * max(tr, 1.0):
                     lines = ref.interface(tr)
             for k, line in enumerate(lines):
                 ax.plot(line[:, 0] * c.length, line[:, 1] * c.length, "k--", lw=0.9,

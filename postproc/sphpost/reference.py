@@ -798,7 +798,8 @@ class Reference:
         self.pressure = read_csv(os.path.join(path, "pressure.csv"))
         self.integrals = read_csv(os.path.join(path, "integrals.csv"))
         # where its analysis ends: the case's end, or a partial run's last output
-        self.t_end = self.summary.get("partial_until", self.setup.t_end)
+        self.t_end = min(self.summary.get("partial_until", self.setup.t_end),
+                         self.summary.get("converged_until", np.inf))
 
     def interface(self, t):
         return read_interface(os.path.join(self.path, f"interface_{t:g}.csv"))
@@ -1198,6 +1199,9 @@ def command(argv, prog="postproc/reference"):
                         "study (markdown)")
     bs.add_argument("dirs", nargs="+", help="boundary-integral reference directories")
     bs.add_argument("--json", help="also write the numbers to this file")
+    bs.add_argument("--ship", metavar="DIR", help="write the finest run, cut at the interval "
+                    "of convergence, with the study into DIR (the reference shipped with the "
+                    "package: postproc/sphpost/data/square_rotation_bem)")
     args = ap.parse_args(argv)
     if args.verb == "bem":
         from . import bem
@@ -1222,7 +1226,20 @@ def command(argv, prog="postproc/reference"):
         return 0
     if args.verb == "bem-study":
         from . import bem
-        res = bem.study(args.dirs)
+        lines = []
+
+        def echo(m):
+            print(m)
+            lines.append(m)
+        try:
+            res = bem.study(args.dirs, echo=echo)
+        except ValueError as e:
+            raise sp.PostprocError(str(e))
+        if args.ship:
+            if "converged_until" not in res:
+                raise sp.PostprocError("--ship needs two runs that differ in their nodes alone")
+            bem.ship(res["base"], args.ship, res, "\n".join(lines) + "\n")
+            print(f"{prog}: wrote {args.ship} (to t omega = {res['converged_until']:g})")
         if args.json:
             with open(args.json, "w") as f:
                 json.dump(res, f, indent=1)

@@ -365,19 +365,64 @@ def reference_levels(root, case):
     return sorted(refs, key=lambda r: r.setup.level)
 
 
-def against_reference(case, scheme_jobs, root, doc):
-    """Each scheme's runs of a square against the finest reference
-    (reference.compare), the reference's own uncertainty (its two finest
-    levels against each other), the observed orders of the differences, and
-    the figure of p and the interfaces.  None without a reference."""
+def bem_against(bem_ref, gerris):
+    """The boundary-integral reference's own uncertainty (its study, shipped
+    beside it) and Gerris's finest level against it over the converged
+    interval: the probe pressure's mean, largest and signed mean difference
+    and the interfaces' mean distance at the common times."""
+    import json
+    import numpy as np
+    from . import reference
+    out = {"bem": bem_ref}
+    sj = os.path.join(bem_ref.path, "study.json")
+    if os.path.isfile(sj):
+        with open(sj) as f:
+            out["study"] = json.load(f)
+    if gerris is not None:
+        t, d = reference.level_gap(bem_ref, gerris)
+        sel = t <= bem_ref.t_end - reference.TRIM + 1e-9
+        t, d = t[sel], d[sel]
+        times = [tk for tk in bem_ref.interface_times() if tk in gerris.interface_times()]
+        out["gerris"] = {
+            "label": gerris.setup.label, "path": gerris.path, "end": float(t[-1]) if len(t) else 0,
+            "p_mean": float(np.mean(np.abs(d))), "p_max": float(np.max(np.abs(d))),
+            "p_bias": float(np.mean(d)),
+            "p_at": {f"{tk:g}": float(np.interp(tk, t, d)) for tk in (1.0, 2.0, 3.0)
+                     if len(t) and tk <= t[-1]},
+            "interface": {f"{tk:g}": reference.curve_distance(gerris.interface(tk),
+                                                              bem_ref.interface(tk))[0]
+                          for tk in times}}
+    return out
+
+
+def against_reference(case, scheme_jobs, root, doc, bem_dir=None):
+    """Each scheme's runs of a square against the reference (reference.compare):
+    for the rotating square the boundary-integral one when bem_dir holds it,
+    with Gerris's finest level as its second; otherwise Gerris's finest level
+    with its own uncertainty (its two finest levels against each other).
+    The observed orders of the differences and the figures of p and the
+    interfaces.  None without a reference."""
     import numpy as np
     from . import reference
     refs = reference_levels(root, case)
-    if not refs:
+    bem_ref = None
+    if case == "square_rotation" and bem_dir and os.path.isfile(
+            os.path.join(bem_dir, "setup.json")):
+        bem_ref = reference.Reference(bem_dir)
+    if not refs and bem_ref is None:
         return None
-    fine = refs[-1]
-    out = {"ref": fine, "schemes": [], "study": []}
-    if len(refs) > 1:
+    if bem_ref is not None:
+        fine = bem_ref
+        out = {"ref": fine, "schemes": [], "study": [],
+               "bem": bem_against(bem_ref, refs[-1] if refs else None)}
+        st = out["bem"].get("study", {})
+        out["until"] = st.get("converged_until")
+        out["uncertainty"] = {"p_until_mean": st.get("p_max"), "p_mean": st.get("p_max")}
+        refs = refs[-1:] + [bem_ref]
+    else:
+        fine = refs[-1]
+        out = {"ref": fine, "schemes": [], "study": []}
+    if bem_ref is None and len(refs) > 1:
         # the reference's own resolution study, as postproc/reference study prints it
         reference.study([r.path for r in refs], echo=out["study"].append)
         a, b = refs[-2], refs[-1]
@@ -414,7 +459,8 @@ def against_reference(case, scheme_jobs, root, doc):
         out["fig"] = png
         # the paper's Figure 3 or 5 with the reference's interface dashed
         png = os.path.join(doc, f"validation_{case}_reference_particles.png")
-        times = [0.0, 4.0] if case == "square_rotation" else [0.0, 0.4, 1.5]
+        times = ([0.0, min([4.0] + fine.interface_times()[-1:])] if case == "square_rotation"
+                 else [0.0, 0.4, 1.5])
         plots.draw("square", [first[-1].path], png, echo=quiet, ref=fine.path, times=times)
         out["fig_particles"] = png
     finest = [rows[-1][0] for _, rows in out["schemes"] if rows]
@@ -439,10 +485,11 @@ def reference_section(w, case, ref, doc):
         return
     fine = ref["ref"]
     tl = "t omega" if case == "square_rotation" else "t V0/L"
-    cells = 1 / fine.setup.dx
-    w(f"#### Against the Gerris reference ({cells:g} cells per L, "
+    w(f"#### Against the reference ({fine.setup.label}, "
       f"`{os.path.relpath(fine.path, ROOT)}`)")
     w("")
+    if "bem" in ref:
+        bem_section(w, ref)
     if ref.get("study"):
         w(f"The reference's resolution study (`postproc/reference study`, doc/reference.md "
           f"for the choices behind it): {ref['study'][0].lstrip('# ').strip()}.")
@@ -450,7 +497,7 @@ def reference_section(w, case, ref, doc):
         w("\n".join(ref["study"][1:]).strip("\n"))
         w("")
     u = ref.get("uncertainty")
-    if u:
+    if u and "levels" in u:
         la, lb = u["levels"]
         w(f"The reference's own uncertainty, its levels {la} and {lb} against each other: "
           f"probe pressure {sig(u['p_mean'])} % of |p(0)| on average over "
@@ -461,7 +508,7 @@ def reference_section(w, case, ref, doc):
         w("")
     times = list(next((c["interface"] for _, rows in ref["schemes"] for _, c in rows), {}))
     until = ref.get("until")
-    if until is not None:
+    if until is not None and "bem" not in ref:
         w(f"The reference has converged to the bar (its two finest levels within 0.3 % of "
           f"|p(0)| on average) over {tl} in [{reference.TRIM:g}, {until:.3g}]: there they "
           f"differ by {sig(u['p_until_mean'])} %. The columns \"to {until:.3g}\" compare over "
@@ -539,6 +586,31 @@ def reference_section(w, case, ref, doc):
         w("The paper's Figure 4 with the reference: each scheme's finest run.")
         w("")
         w(f"![Figure 4 with the reference]({rel(ref['fig4'], doc)})")
+        w("")
+
+
+def bem_section(w, ref):
+    """The report's lines on the boundary-integral reference: its interval
+    of convergence and Gerris against it."""
+    b = ref["bem"]
+    st = b.get("study", {})
+    if st:
+        w(f"The boundary-integral solution (doc/reference.md) is converged over t omega in "
+          f"[0, {st['converged_until']:g}]: its two finest runs ({st['nodes'][0]} and "
+          f"{st['nodes'][1]} nodes) differ there by at most {sig(st['p_max'])} % of |p_A(0)| "
+          f"in p_A and {st['surface_max']:.1e} L in the surface. It is judged only there; "
+          "its own error is far below every difference below.")
+        w("")
+    g = b.get("gerris")
+    if g:
+        w(f"Gerris's finest level ({g['label']}, `{os.path.relpath(g['path'], ROOT)}`) "
+          f"against it over [{0.1:g}, {g['end']:.3g}]: p_A mean |difference| "
+          f"{sig(g['p_mean'])} %, largest {sig(g['p_max'])} %, signed mean "
+          f"{100 * g['p_bias']:+.3f} % of |p_A(0)| ("
+          + ", ".join(f"{100 * v:+.2f} % at t omega = {k}" for k, v in g["p_at"].items())
+          + "); interfaces " + ", ".join(f"{d:.4f} L at {k}" for k, d in g["interface"].items())
+          + ". The two-phase solver's own error on this Rayleigh-Taylor unstable surface: "
+          "doc/reference.md.")
         w("")
 
 
@@ -1116,6 +1188,10 @@ def command(argv, prog="postproc/validate"):
                     help="where `make reference` put the squares' Gerris references "
                          "(default runs/reference): the finest level of each case is the "
                          "reference, the next finer its uncertainty")
+    ap.add_argument("--bem", default=os.path.join(ROOT, "postproc", "sphpost", "data",
+                                                   "square_rotation_bem"),
+                    help="the rotating square's boundary-integral reference (default: the "
+                         "one shipped, %(default)s; `make reference-bem` recomputes it)")
     ap.add_argument("--reuse", action="store_true",
                     help="reuse finished runs found in --runs, continue the runs stopped "
                          "with a checkpoint, run only the missing ones")
@@ -1204,7 +1280,8 @@ def command(argv, prog="postproc/validate"):
     s_out = {case: analyse_square(js, args.doc, case) for case, js in squares.items()}
     for case, sj in schemes.items():
         if s_out.get(case):
-            s_out[case]["reference"] = against_reference(case, sj, args.reference, args.doc)
+            s_out[case]["reference"] = against_reference(case, sj, args.reference, args.doc,
+                                                         args.bem)
     if fig4 and s_out.get("square_rotation") and all(j.ok for j in fig4):
         png = os.path.join(args.doc, "validation_square_rotation_fig4.png")
         plots.draw("pressure", [j.run_dir for j in fig4], png, echo=quiet,
