@@ -549,16 +549,18 @@ def write_run(rec, setup, out_dir, p0_series):
     os.makedirs(out_dir, exist_ok=True)
     head = "# " + setup.params.header() + "; units L, 1/omega, rho omega^2 L^2"
     t = np.asarray(rec.t)
+    # 12 digits: the invariants' drift (1e-11 while a run is clean) shows
     write_csv(os.path.join(out_dir, "pressure.csv"), ("t", "p"), zip(t, rec.p),
-              comment=head)
+              comment=head, digits=12)
     write_csv(os.path.join(out_dir, "integrals.csv"), ("t", "area", "kinetic_energy"),
-              zip(t, rec.area, rec.ke), comment=head)
+              zip(t, rec.area, rec.ke), comment=head, digits=12)
     write_csv(os.path.join(out_dir, "tips.csv"), ("t", "radius", "curvature"),
-              zip(t, rec.tip_r, rec.tip_k), comment=head)
+              zip(t, rec.tip_r, rec.tip_k), comment=head, digits=12)
     for ts, Z in rec.surfaces.items():
         Zc = np.append(Z, Z[:1])                    # closed
         write_csv(os.path.join(out_dir, f"interface_{ts:g}.csv"), ("piece", "x", "y"),
-                  ((0, float(z.real), float(z.imag)) for z in Zc), comment=head)
+                  ((0, float(z.real), float(z.imag)) for z in Zc), comment=head,
+                  digits=10)
     area = np.asarray(rec.area)
     ke = np.asarray(rec.ke)
     summary = {"method": "bem", "header": setup.params.header(),
@@ -701,7 +703,7 @@ def ship(ref_dir, out_dir, res, study_text):
             keep = d["t"] <= until + 1e-9
             cols = list(d)
             write_csv(os.path.join(tmp, name), cols, zip(*(d[c][keep] for c in cols)),
-                      comment=comment)
+                      comment=comment, digits=12)
         else:
             shutil.copy(src, tmp)
     with open(os.path.join(tmp, "summary.json")) as f:

@@ -564,16 +564,17 @@ def cavities(grid, min_cells=4):
             if k not in border and sz >= min_cells]
 
 
-def write_csv(path, header, rows, comment=None):
+def write_csv(path, header, rows, comment=None, digits=9):
     """A CSV file written completely or not at all (a '#' comment line
-    first, if given)."""
+    first, if given; floats to `digits` significant digits)."""
     tmp = path + ".tmp"
     with open(tmp, "w") as f:
         if comment:
             f.write(comment.rstrip("\n") + "\n")
         f.write(",".join(header) + "\n")
         for r in rows:
-            f.write(",".join(f"{v:.9g}" if isinstance(v, float) else str(v) for v in r) + "\n")
+            f.write(",".join(f"{v:.{digits}g}" if isinstance(v, float) else str(v) for v in r)
+                    + "\n")
     os.replace(tmp, path)
 
 
