@@ -42,7 +42,7 @@ class Params:
 
     def __init__(self, nodes=1024, dt=0.0025, t_end=4.0, n_corner=24, filter_order=12,
                  filter_strength=36.0, krasny=1e-14, remap_every=5, kappa0=6.0,
-                 gap_length=0.1, arc_factor=2.5, out_dt=0.01,
+                 gap_length=0.1, arc_factor=2.5, grading=0.1, out_dt=0.01,
                  surface_times=(0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0),
                  energy_tol=1e-6):
         self.nodes, self.dt, self.t_end, self.n_corner = nodes, dt, t_end, n_corner
@@ -50,6 +50,7 @@ class Params:
                                                                 krasny)
         self.remap_every, self.kappa0, self.gap_length = remap_every, kappa0, gap_length
         self.arc_factor, self.out_dt, self.surface_times = arc_factor, out_dt, surface_times
+        self.grading = grading
         self.energy_tol = energy_tol
         checks = (("nodes", nodes >= 64 and nodes % (2 * SYM) == 0,
                    f"a multiple of {2 * SYM}, at least 64"),
@@ -332,6 +333,22 @@ def arm_gap(Z, s, perimeter, arc_factor, m, chunk=512):
     return out
 
 
+def graded(h, s, perimeter, slope):
+    """min_i (h_i + slope |s - s_i|) on the closed curve (arc length s):
+    two sweeps each way, twice around."""
+    n = len(h)
+    h = h.copy()
+    ds = np.diff(np.append(s, s[0] + perimeter))
+    for _ in range(2):
+        for j in range(1, 2 * n):
+            a, b = (j - 1) % n, j % n
+            h[b] = min(h[b], h[a] + slope * ds[a])
+        for j in range(2 * n - 2, -1, -1):
+            a, b = (j + 1) % n, j % n
+            h[b] = min(h[b], h[a] + slope * ds[b])
+    return h
+
+
 def node_density(Z, p):
     """The node density along the whole curve (doc/reference.md): max(1 + |kappa|/kappa0,
     gap_length/gap), smoothed (a redistribution's parameter must stay a
@@ -341,6 +358,12 @@ def node_density(Z, p):
     kap = np.abs(curvature(Z))
     gap = whole_scalar(arm_gap(Z, s, per, p.arc_factor, n // SYM))
     f = np.maximum(1 + kap / p.kappa0, p.gap_length / gap)
+    # graded: the spacing h = 1/f grows at most by p.grading per unit of arc
+    # length away from a fine spot (a needle tip's density would otherwise
+    # jump by two orders within a few nodes)
+    c = np.sum(f * np.abs(np.diff(np.append(Z, Z[0])))) / n    # arc length per unit of 1/f
+    h = graded(1.0 / f, s, per, p.grading / c)
+    f = 1.0 / h
     # a low-pass of the density: keep the modes below N/16
     fk = np.fft.fft(f)
     k = np.abs(wavenumbers(n)) / (n / 16)
