@@ -261,7 +261,7 @@ build/bench/pairloop_bench: $(PAIRLOOP_SRC) tests/bench/pairloop/pairloop_kernel
 decomp-study: sph
 	$(PYTHON) tests/bench/decomp_study.py $(DECOMP_ARGS)
 
-# doc/input.md's tables of variables, rewritten from `sph --input-tables`
+# doc/reference/input.md's tables of variables, rewritten from `sph --input-tables`
 # (the rows that describe each variable); the test suite checks they agree.
 input-doc: sph
 	$(PYTHON) tests/integration/test_input_doc.py --write
