@@ -51,7 +51,7 @@ contains
             'add the compressible part of the start (I1, doc/theory/solutions.md): ' // &
             'no acoustic mode from P''(0)', &
             doc='add the compressible part of the initial velocity (I1, ' // &
-                '[numerics.md](numerics.md)): without it the falling centre pressure ' // &
+                '[solutions](../theory/solutions.md)): without it the falling centre pressure ' // &
                 'rings the lowest acoustic mode (6-8 % of P(0) at c0 = 10); ' // &
                 'input/ellipsoid3d.nml sets it')]
     if (.false.) vars(1)%help = self%help

@@ -103,7 +103,7 @@ module input_params
           doc='`rings`: concentric rings (3D: shells) of spacing dx; `lattice`: square ' // &
               '(cubic) lattice clipped to the body; `packed`: relaxed into a uniform, ' // &
               'isotropic arrangement with a sharp surface (circle2d and ellipsoid3d ' // &
-              'only, [packing.md](packing.md); both input files use it). The square ' // &
+              'only, [packing](../theory/packing.md); both input files use it). The square ' // &
               'patches are always on a lattice of nint(sqrt(n)) x nint(sqrt(n)) ' // &
               'particles and refuse `packed`'), &
     var_t(G_PARTICLES, 'h_over_dx', T_REAL, SCALAR, LO_GE, HI_LE, 1.0_wp, 8.0_wp, CH_NONE, &
@@ -140,7 +140,7 @@ module input_params
               'x_k >= 0 on each, and the particles near a plane see their mirror images ' // &
               'as neighbours, so that the part moves as the whole body would; a ' // &
               'particle may lie on a plane, with its share of the mass (M5, ' // &
-              '[symmetry.md](symmetry.md)). `n` stays the whole body''s count; the run ' // &
+              '[mirrors](../theory/mirrors.md)). `n` stays the whole body''s count; the run ' // &
               'holds about n / 2^(planes). circle2d and ellipsoid3d only, with `lattice` or ' // &
               '`packed` and without shifting'), &
     var_t(G_PHYSICS, 'rho0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
@@ -175,7 +175,7 @@ module input_params
           0.0_wp, 0.0_wp, CH_NONE, '', 'viscosity on u_ji less its linear part ' // &
           'from the strain rates of i and j: none on a linear velocity field', &
           doc='the viscosity acts on u_ji less its linear part, reconstructed from the ' // &
-              'renormalised strain rates of i and j ([doc/theory/](theory.md) R1): ' // &
+              'renormalised strain rates of i and j ([theory](../theory/equations.md) R1): ' // &
               'zero on any linear velocity field, also at the free surface. Its sums ' // &
               'join the first pass where L_i is computed, else one more pass'), &
     var_t(G_NUMERICS, 'alpha_exponent', T_REAL, SCALAR, LO_GE, HI_LE, -2.0_wp, 2.0_wp, &
@@ -200,7 +200,7 @@ module input_params
     var_t(G_NUMERICS, 'tensile', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_NONE, '', 'tensile instability control (Monaghan 2000): a repulsion ' // &
           'between particles under negative pressure', &
-          doc='tensile instability control (Monaghan 2000, [doc/theory/](theory.md) ' // &
+          doc='tensile instability control (Monaghan 2000, [theory](../theory/equations.md) ' // &
               'E7): a repulsion -Sum_j m_j (R_i + R_j) (W_ij/W(dx))^n grad_i W_ij ' // &
               'between particles under negative pressure. Needed by the square patches ' // &
               'unless `shifting` keeps the particles regular (both square inputs use ' // &
@@ -241,12 +241,12 @@ module input_params
           'stage, or once a step (doc/studies/numerics.md)', &
           doc='when the renormalised operators compute L_i and lambda_i: at every RK4 ' // &
               'stage, or once a step for all its stages (27 % less time a step on ' // &
-              'ellipsoid3d, errors unchanged: [numerics.md](numerics.md))'), &
+              'ellipsoid3d, errors unchanged: [numerics](../studies/numerics.md))'), &
     var_t(G_NUMERICS, 'shifting', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_NONE, '', 'particle shifting after each step (delta-plus-SPH, Sun et al. ' // &
           '2017), none on the free surface', &
           doc='particle shifting after each step (delta-plus-SPH, Sun et al. 2017, ' // &
-              '[doc/theory/](theory.md) E8): dr_i = -CFL Ma (2h)^2 Sum_j [1 + 0.2 ' // &
+              '[theory](../theory/equations.md) E8): dr_i = -CFL Ma (2h)^2 Sum_j [1 + 0.2 ' // &
               '(W_ij/W(dx))^4] grad_i W_ij V_j, none on the free surface (lambda < ' // &
               '0.55), only tangential near it (lambda < 0.9). Positions only. Keeps the ' // &
               'square patches in one piece without the tensile control (on in ' // &
@@ -256,7 +256,7 @@ module input_params
           CH_NONE, '', 'pair sums independent of the partners'' order: symmetric ' // &
           'cases stay exactly symmetric', &
           doc='each pair term is rounded onto two fixed grids and summed exactly ' // &
-              '([doc/theory/](theory.md) B1), so that a particle''s sums do not depend ' // &
+              '([theory](../theory/operators.md) B1), so that a particle''s sums do not depend ' // &
               'on the order of its partners: the square patches, symmetric under a ' // &
               'rotation or a mirror, then stay symmetric to the last bit. The ' // &
               'standard operators only (with shifting, the tensile control and either ' // &
@@ -273,7 +273,7 @@ module input_params
           CH_NONE, '', 'probes fit a quadratic to the pressures in the support (exact for ' // &
           'quadratic p) instead of the Shepard mean', &
           doc='the probes fit a quadratic polynomial to the particle pressures within the ' // &
-              'kernel support by weighted least squares ([doc/theory/](theory.md) D5): ' // &
+              'kernel support by weighted least squares ([theory](../theory/diagnostics.md) D5): ' // &
               'exact for a quadratic pressure field, where the Shepard mean (D4) is off ' // &
               'by O(h^2) (0.56 (h/R)^2 P at the centre of the circular patch)'), &
     var_t(G_OUTPUT, 'mirror', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
@@ -281,7 +281,7 @@ module input_params
           'and its reflections) instead of the part', &
           doc='with `particles.symmetry`: every snapshot holds the whole body, the part ' // &
               'followed by its reflections (for ParaView), instead of the part alone; ' // &
-              'a restart from it reads the part ([symmetry.md](symmetry.md)). ' // &
+              'a restart from it reads the part ([mirrors](../theory/mirrors.md)). ' // &
               'Checkpoints always hold the part'), &
     var_t(G_OUTPUT, 'n_probes', T_INT, SCALAR, LO_GE, HI_LE, 0.0_wp, real(MAX_PROBES, wp), &
           CH_NONE, '', 'number of pressure probes'), &
