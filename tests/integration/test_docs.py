@@ -5,16 +5,16 @@
     #anchor, the page has a heading with that GitHub anchor;
 (b) every default a page states agrees with `./sph --defaults` or with the
     input file it names.  The convention, which pages follow:
-      - inline, `group.variable = value` (spaces around '='): the solver's
-        default, as `./sph --defaults` prints it;
-      - inline, `group.variable = value` in `input/NAME.nml`: the value a
-        run of that input file uses (the file's, else the default);
+      - inline, default `group.variable = value`, or `group.variable`
+        (default value): the solver's default, as `./sph --defaults`
+        prints it;
+      - inline, `input/NAME.nml` sets `group.variable = value`: the value
+        a run of that input file uses (the file's, else the default);
       - a table whose first header cell is "variable", its rows starting
         with `group.variable`, its other columns headed "default" or
         `input/NAME.nml` (a cell left empty or "-" states nothing).
-    A command-line override is written without spaces
-    (`particles.n=80000`) and states no default; but every
-    `group.variable` a page names must exist;
+    Any other `group.variable = value` describes a setting and states
+    nothing; but every `group.variable` a page names must exist;
 (c) no issue numbers ("issue 37", "#37"), session words ("this session",
     "last stop") or machine anecdotes ("this machine", "the development
     machine") in doc/;
@@ -187,7 +187,9 @@ def effective(defaults, nml):
 
 
 VAR = r"([a-z_0-9]+\.[a-z_0-9]+(?:\([0-9:, ]*\))?)"
-INLINE = re.compile(r"`" + VAR + r" = ([^`]+)`(?: in `(input/[\w.]+\.nml)`)?")
+INLINE = [re.compile(r"[Dd]efault:? `" + VAR + r" = ([^`]+)`()"),
+          re.compile(r"`" + VAR + r"` \([Dd]efault:? `?([^`),]+)`?\)()"),
+          re.compile(r"`(input/[\w.]+\.nml)` sets `" + VAR + r" = ([^`]+)`")]
 
 
 def stated_defaults():
@@ -197,8 +199,12 @@ def stated_defaults():
             continue
         lines = prose(page.read_text()).split("\n")
         for n, line in enumerate(lines, 1):
-            for m in INLINE.finditer(line):
-                yield f"{rel(page)}:{n}", m.group(1), m.group(2), m.group(3) or "default"
+            for k, pattern in enumerate(INLINE):
+                for m in pattern.finditer(line):
+                    if k < 2:
+                        yield f"{rel(page)}:{n}", m.group(1), m.group(2), "default"
+                    else:
+                        yield f"{rel(page)}:{n}", m.group(2), m.group(3), m.group(1)
         n = 0
         while n < len(lines):
             head = [c.strip() for c in lines[n].strip().strip("|").split("|")]
