@@ -98,8 +98,8 @@ module input_params
     var_t(G_PARTICLES, 'n', T_INT, SCALAR, LO_GE, HI_LE, 50.0_wp, 2000000000.0_wp, CH_NONE, &
           '', 'approximate number of particles; the spacing dx follows from it'), &
     var_t(G_PARTICLES, 'placement', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_PLACEMENT, '', 'rings: concentric rings (shells); lattice: square (cubic) ' // &
-          'lattice clipped; packed: relaxed (doc/theory/packing.md)', &
+          CH_PLACEMENT, '', 'rings: concentric (shells); lattice: a clipped square ' // &
+          '(cubic); packed: relaxed (doc/theory/packing.md)', &
           doc='`rings`: concentric rings (3D: shells) of spacing dx; `lattice`: square ' // &
               '(cubic) lattice clipped to the body; `packed`: relaxed into a uniform, ' // &
               'isotropic arrangement with a sharp surface (circle2d and ellipsoid3d ' // &
@@ -133,8 +133,8 @@ module input_params
               'takes h/dx, c0, alpha and delta from `n`: then `n` must be the file''s ' // &
               'count (within 2 %)'), &
     var_t(G_PARTICLES, 'symmetry', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_SYMMETRY, '', 'mirror planes x = 0, y = 0, z = 0 named by their normals: ' // &
-          'the run holds the part x_k >= 0 (doc/studies/symmetry.md)', &
+          CH_SYMMETRY, '', 'mirror planes x = 0, y = 0, z = 0 by their normals: ' // &
+          'the run holds the part x_k >= 0 (doc/theory/mirrors.md)', &
           doc='mirror planes through the centre, named by their normal axes (`''xyz''`: ' // &
               'the three coordinate planes): the run holds the part of the body with ' // &
               'x_k >= 0 on each, and the particles near a plane see their mirror images ' // &
