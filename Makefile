@@ -244,7 +244,7 @@ bench: sph
 # The standard operators' pair loop alone, on one core: the solver's half
 # list, the pair terms on contiguous data (the least any loop pays) and 4 x 8
 # cluster pairs, each in double and single precision (seconds; needs an idle
-# core); doc/studies/ellipsoid3d.md, "What three times faster would take".
+# core); doc/studies/speed.md, "What three times faster would take".
 # PAIRLOOP_ARGS: the lattice's side (74: 212,472 particles).
 PAIRLOOP_SRC := $(addprefix tests/bench/pairloop/,pairloop_layout.f90 pairloop_double.f90 \
                   pairloop_single.f90 pairloop_bench.f90)
