@@ -1,5 +1,5 @@
 # sph: build, test, clean.  The sources are src/<layer>/*.f90, one folder per
-# layer (doc/architecture.md); objects and module files go to $(BUILD), flat;
+# layer (doc/developer/architecture.md); objects and module files go to $(BUILD), flat;
 # the executable is ./sph.  Dependencies between modules are read from the
 # `use` statements (file name = module name, unique over the folders), so the
 # order is automatic and a new file or folder needs no edit here.
@@ -103,7 +103,7 @@ $(BUILD)/deps.mk: $(DEP_SRC) | $(BUILD)
 # its PFUNIT-4.x directory, the prefix holding it or its cmake/ directory),
 # pFUnit's preprocessor and driver build them; without it, tests/pf2f90.py
 # translates them for the harness tests/testing.f90.  Either way
-# tests/run_tests.sh runs the result (doc/usage.md, "Unit tests").
+# tests/run_tests.sh runs the result (doc/developer/testing.md, "Unit tests").
 PF2F90 := $(BUILD)/pf2f90
 PFB    := $(BUILD)/pfunit
 
@@ -197,7 +197,7 @@ test: sph $(UNIT_EXE)
 # The validation study behind doc/validation.md: runs circle2d at four
 # resolutions (the input's defaults, the standard operators and the
 # convergent recipe), ellipsoid3d at two and the square patches, then the errors,
-# convergence orders and figures of postproc/ (doc/postproc.md).  Runs go to
+# convergence orders and figures of postproc/ (doc/reference/postproc.md).  Runs go to
 # runs/validate/; VALIDATE_ARGS passes options (e.g. --reuse, --quick).
 validate: sph
 	$(PYTHON) postproc/validate $(VALIDATE_ARGS)
@@ -264,7 +264,7 @@ bench: sph
 # The standard operators' pair loop alone, on one core: the solver's half
 # list, the pair terms on contiguous data (the least any loop pays) and 4 x 8
 # cluster pairs, each in double and single precision (seconds; needs an idle
-# core); doc/ellipsoid3d.md, "What three times faster would take".
+# core); doc/studies/speed.md, "What three times faster would take".
 # PAIRLOOP_ARGS: the lattice's side (74: 212,472 particles).
 PAIRLOOP_SRC := $(addprefix tests/bench/pairloop/,pairloop_layout.f90 pairloop_double.f90 \
                   pairloop_single.f90 pairloop_bench.f90)
@@ -281,7 +281,7 @@ build/bench/pairloop_bench: $(PAIRLOOP_SRC) tests/bench/pairloop/pairloop_kernel
 decomp-study: sph
 	$(PYTHON) tests/bench/decomp_study.py $(DECOMP_ARGS)
 
-# doc/input.md's tables of variables, rewritten from `sph --input-tables`
+# doc/reference/input.md's tables of variables, rewritten from `sph --input-tables`
 # (the rows that describe each variable); the test suite checks they agree.
 input-doc: sph
 	$(PYTHON) tests/integration/test_input_doc.py --write

@@ -3,7 +3,7 @@
 
     /usr/bin/python3 tests/pf2f90.py tests/unit/test_eos.pf build/.../test_eos.F90
 
-`make test` uses it when pFUnit is not installed (doc/usage.md, "Unit tests"); with
+`make test` uses it when pFUnit is not installed (doc/developer/testing.md, "Unit tests"); with
 pFUnit, pFUnit's own funitproc reads the same files.  It understands the part
 of pFUnit's test language the suite uses, written as funitproc needs it
 (one directive per line, no continuation, no trailing comment):

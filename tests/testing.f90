@@ -1,4 +1,4 @@
-!> The unit-test harness used when pFUnit is not installed (doc/usage.md, "Unit
+!> The unit-test harness used when pFUnit is not installed (doc/guide/cases.md, "Unit
 !> tests"): tests/pf2f90.py translates each tests/unit/test_<module>.pf into
 !> Fortran that calls this module instead of pFUnit.  It offers the part of
 !> pFUnit 4's API the .pf files use, with pFUnit's names and behaviour:

@@ -1,4 +1,4 @@
-"""sphpost: the post-processing of sph runs (doc/postproc.md).
+"""sphpost: the post-processing of sph runs (doc/reference/postproc.md).
 
 The library is sphpost.core; its names are re-exported here, so code that
 did `import sphpost as sp` against the former postproc/sphpost.py (the

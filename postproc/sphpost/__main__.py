@@ -24,7 +24,7 @@ def main(argv=None):
         return tool(argv[0]).main(argv[1:], prog=f"{PROG} {argv[0]}")
     ap = argparse.ArgumentParser(
         prog=PROG, description=__doc__,
-        epilog=f"{PROG} TOOL --help describes a tool; doc/postproc.md all of them.",
+        epilog=f"{PROG} TOOL --help describes a tool; doc/reference/postproc.md all of them.",
         formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="tool", required=True, metavar="TOOL")
     for name in TOOLS:

@@ -1,6 +1,6 @@
 """bem: the rotating square by a boundary-integral method, the reference the
 paper compares with (its Figures 3 and 4), in the square's own units
-(L = omega = rho = 1; doc/theory.md X7, doc/reference.md).
+(L = omega = rho = 1; doc/theory/solutions.md X7, doc/reference.md).
 
 The flow keeps its vorticity uniform (zeta = -2 omega: 2D, inviscid), so
 that u = u_R + grad phi with u_R = (omega y, -omega x) and phi harmonic in

@@ -62,7 +62,7 @@ def command(argv, prog="postproc/convergence"):
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("run_dirs", nargs="+", metavar="RUN_DIR",
                     help="run directories of one case at several resolutions (any order), "
-                         "ours or another code's (--case, doc/postproc.md)")
+                         "ours or another code's (--case, doc/reference/postproc.md)")
     ap.add_argument("-o", "--output", metavar="PNG", default="convergence.png",
                     help="the log-log plot (default %(default)s)")
     ap.add_argument("--json", metavar="FILE", help="also write the table and orders as JSON")

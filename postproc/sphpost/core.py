@@ -1,11 +1,11 @@
 """sphpost.core: the shared library of the post-processing tools.
 
-Reads an sph run directory (doc/output.md), knows each case's scales and
-lowest acoustic frequency (doc/theory.md X6), low-pass filters probe signals with
+Reads an sph run directory (doc/reference/output.md), knows each case's scales and
+lowest acoustic frequency (doc/theory/ X6), low-pass filters probe signals with
 FFTW (a type-I discrete cosine transform, FFTW_REDFT00, through pyFFTW) and
 computes the paper's errors against the exact solution.  The tools
 (errors, filter, convergence, plots, validate) are command-line layers over
-it; doc/postproc.md documents them and the filter design.
+it; doc/reference/postproc.md documents them and the filter design.
 
 Run with /usr/bin/python3 (Debian's numpy, h5py, matplotlib, pyfftw).
 """
@@ -128,7 +128,7 @@ def read_namelist(path):
 
 
 # ---------------------------------------------------------------------------
-# Cases: scales and the lowest acoustic frequency (doc/theory.md X6)
+# Cases: scales and the lowest acoustic frequency (doc/theory/ X6)
 # ---------------------------------------------------------------------------
 
 # First zero of the Bessel function J0: the lowest Dirichlet (p = 0 on the
@@ -148,7 +148,7 @@ class CaseInfo:
     p_unit        the pressure unit of the paper's plots (rho A0^2 R^2, rho omega^2 L^2, rho V0^2)
     p_unit_label  its name
     f_acoustic    the lowest acoustic frequency of the patch at t = 0, in
-                  cycles per unit time (doc/theory.md X6; sphere: c0/(2R), the
+                  cycles per unit time (doc/theory/ X6; sphere: c0/(2R), the
                   first zero of sin(kr)/r).  By the Faber-Krahn inequality the
                   disc (ball) has the lowest Dirichlet eigenvalue among all
                   shapes of equal area (volume), so the stretching patches
@@ -192,7 +192,7 @@ def _pick(group, names, default, notes, what):
 
 
 def resolution_scale(nml, dim):
-    """s = (n/n_ref)^(1/dim) of the input's resolution scaling (doc/convergence.md
+    """s = (n/n_ref)^(1/dim) of the input's resolution scaling (doc/studies/convergence.md
     S1), 1 without it: the run's c0 is physics.c0 s^c0_exponent, as the solver
     computes it (input.nml keeps the given values and the rule)."""
     part = nml.get("particles", {})
@@ -280,7 +280,7 @@ def mirror_copies(mask):
 
 
 def mirror_attrs(attrs):
-    """A snapshot's mirror planes (doc/output.md): their mask (0: none) and
+    """A snapshot's mirror planes (doc/reference/output.md): their mask (0: none) and
     the copies of the part the file holds (1: the part)."""
     return (int(round(float(attrs.get("symmetry_mask", 0)))),
             int(round(float(attrs.get("mirror_copies", 1)))))
@@ -396,7 +396,7 @@ class Run:
         """Snapshot `index` (negative counts from the end) as a dict of arrays
         sorted by particle id, plus 'attrs'.  A run with mirror planes
         (particles.symmetry) is given as the whole body: a snapshot of the
-        part is unfolded by its reflections (doc/symmetry.md, M3)."""
+        part is unfolded by its reflections (doc/theory/mirrors.md, M3)."""
         import h5py
         path = self.snapshots[index]
         with h5py.File(path, "r") as f:
@@ -524,7 +524,7 @@ def solver_summary(text):
 
 
 # ---------------------------------------------------------------------------
-# Exact solution of the stretching patch (doc/theory.md X1), for tests and plots
+# Exact solution of the stretching patch (doc/theory/ X1), for tests and plots
 # ---------------------------------------------------------------------------
 
 def exact_ellipse(t, rates=(-1.0, 1.0), radius=1.0, rho=1.0):
@@ -675,10 +675,10 @@ def cutoff(case, acoustic_fraction=None, flow_multiple=None):
 
 def add_filter_options(parser):
     """The filter's command-line options, shared by the scripts."""
-    g = parser.add_argument_group("pressure filter (doc/postproc.md)")
+    g = parser.add_argument_group("pressure filter (doc/reference/postproc.md)")
     g.add_argument("--cutoff-acoustic", type=float, metavar="FRAC",
                    help="cut-off as a fraction of the lowest acoustic frequency of the "
-                        f"patch (doc/theory.md X6); default {DEFAULT_ACOUSTIC_FRACTION}")
+                        f"patch (doc/theory/ X6); default {DEFAULT_ACOUSTIC_FRACTION}")
     g.add_argument("--cutoff-flow", type=float, metavar="F",
                    help="cut-off in units of the flow rate instead (A0, omega or V0/L: "
                         "cycles per 1/A0 ...)")
@@ -799,7 +799,7 @@ def stretching_errors(run, f_cut, transition):
         # the error signal p - P(t) is filtered, i.e. the SPH pressure and
         # the exact one pass through the same filter: the filter's rounding
         # of the exact curve at the ends (bias, below) cancels instead of
-        # being counted as an error of the solver (doc/postproc.md)
+        # being counted as an error of the solver (doc/reference/postproc.md)
         tu, _, ef = lowpass(tp, eraw, f_cut, transition)
         _, pu, pexf = lowpass(tp, pexp, f_cut, transition, dt=tu[1] - tu[0])
         out["filtered"] = (tu, ef, pu / p0, (pexf - pu) / p0)
@@ -858,7 +858,7 @@ def centre_pressure_accel(a, al, rho=1.0):
 
 
 def compressibility_floor(t, rates=(-1.0, 1.0), radius=1.0, rho=1.0, c0=10.0):
-    """(I2, doc/numerics.md) The weakly compressible model's own departure
+    """(I2, doc/theory/solutions.md) The weakly compressible model's own departure
     of the centre pressure of the stretching patch (X1, initial rates
     `rates`) from the incompressible P(t), over P(0):
     delta p(0, t) = -P''(t) R^2 (dim + 4) / (4 dim (dim + 2) c0^2).  It

@@ -11,7 +11,7 @@ at the table's times are the solver's own time-series values (timeseries.csv);
 
 The run is one of ours (a run directory) or another code's output, one file
 per output time: the plain format (CSV or .npz), VTK (.vtk, .vtu, .vtp) or
-PySPH's dumps (doc/postproc.md, "Other codes' runs"); its case is --case and
+PySPH's dumps (doc/reference/postproc.md, "Other codes' runs"); its case is --case and
 its units --length, --rate, --v0, --rho.
 
 Example:
@@ -78,7 +78,7 @@ def velocity_split(run, degree=3):
 
 
 #: the band edges of plane_bands, in dx of initial distance from the nearest
-#: coordinate plane (doc/symmetry.md: the packing's layers reach about 1.5 dx)
+#: coordinate plane (doc/studies/symmetry.md: the packing's layers reach about 1.5 dx)
 PLANE_BAND_EDGES = (0.5, 1.0, 2.0, 4.0, 8.0)
 #: plane_bands groups the particles of initial radius below this (in R) by
 #: their distance from the planes; the rest, near the free surface, apart
@@ -124,7 +124,7 @@ def plane_bands(run, edges=PLANE_BAND_EDGES, interior=PLANE_BAND_INTERIOR):
     """The RMS velocity error of each snapshot by the particles' initial
     distance d from the nearest coordinate plane through the centre, in dx:
     for the interior particles (initial radius below `interior` R) those on a
-    plane (d = 0: M5 of doc/symmetry.md), then 0 < d < edges[0], edges[0] <=
+    plane (d = 0: M5 of doc/theory/mirrors.md), then 0 < d < edges[0], edges[0] <=
     d < edges[1], ..., d >= edges[-1]; then the other particles and all of
     them.  A mirror-plane run is taken as its whole body (core.Run.snapshot),
     a full run at the same planes, so that the two compare band by band.
@@ -138,7 +138,7 @@ def plane_band_pressure(run, edges=PLANE_BAND_EDGES, interior=PLANE_BAND_INTERIO
     """The mean signed pressure error (p - p_exact) / P(0) of each snapshot
     in the groups of plane_bands (P(0) the exact centre pressure at t = 0):
     the layers next to a plane can carry a pressure of their own that the
-    RMS velocity does not show (doc/symmetry.md, "The late centre
+    RMS velocity does not show (doc/studies/symmetry.md, "The late centre
     pressure").  Every group moves with the run's acoustic oscillation, so
     the groups compare within a row.  Returns (labels, counts, rows) as
     plane_bands; sum over groups of count mean is all's."""
@@ -288,7 +288,7 @@ def command(argv, prog="postproc/errors"):
         print(f"start-up dip: the raw centre pressure falls at most "
               f"{100 * res['dip']:.4f} % of P(0) below P(t) for {c.time_label} < "
               f"{sp.DIP_WINDOW:g}")
-    print(f"compressibility floor (I2, doc/numerics.md): the weakly compressible slow "
+    print(f"compressibility floor (I2, doc/theory/solutions.md): the weakly compressible slow "
           f"solution's own centre pressure departs from P(t) by {100 * res['mean']['slow']:.4f} "
           f"% of P(0) on average at c0 = {c.c0:g}; the filtered error does not converge below "
           f"it (it falls as 1/c0^2)")

@@ -1,7 +1,7 @@
 """sphpost.exact: the prototype problems' exact solutions, usable on their own.
 
 Any particle code can check itself against these without running sph or
-reading its files (doc/postproc.md, "The exact solutions as a library"):
+reading its files (doc/reference/postproc.md, "The exact solutions as a library"):
 
     from sphpost import exact
     s = exact.stretching([0.0, 1.0, 2.0])            # circle2d, R = A0 = rho = 1
@@ -13,8 +13,8 @@ reading its files (doc/postproc.md, "The exact solutions as a library"):
 
 Lengths, rates and densities are whatever units the caller uses (R, A0,
 rho; L, omega, V0): every formula is dimensionally consistent.  Each function
-carries the label of its equation in doc/theory.md (X1-X4) or
-doc/numerics.md (I2).  The ODE of X1 and its derivatives live in
+carries the label of its equation in doc/theory/ (X1-X4) or
+doc/theory/solutions.md (I2).  The ODE of X1 and its derivatives live in
 sphpost.core (exact_ellipse, centre_pressure_derivatives), which the error
 tools use too; this module gives them one documented face.
 """

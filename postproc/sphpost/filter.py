@@ -9,8 +9,8 @@ RUN_DIR/probes_filtered.csv (or -o FILE) with the columns
 and, for cases with an exact centre pressure, p_centre_exact.
 
 The cut-off defaults to half the lowest acoustic frequency of the patch
-(doc/theory.md X6: circle 2.405 c0/(2 pi R), sphere c0/(2R), square
-c0/(sqrt(2) L)); see doc/postproc.md for the design and its limits.
+(doc/theory/ X6: circle 2.405 c0/(2 pi R), sphere c0/(2R), square
+c0/(sqrt(2) L)); see doc/reference/postproc.md for the design and its limits.
 For each probe it prints the RMS of the removed part and the frequency of its
 spectral peak, to compare with the acoustic frequency.
 
@@ -34,7 +34,7 @@ def command(argv, prog="postproc/filter"):
     ap = argparse.ArgumentParser(prog=prog, description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("run_dir", help="the run directory (output.dir of an sph run), or another "
-                                    "code's output (--case, doc/postproc.md)")
+                                    "code's output (--case, doc/reference/postproc.md)")
     ap.add_argument("-o", "--output", metavar="FILE",
                     help="where to write the filtered signals "
                          "(default RUN_DIR/probes_filtered.csv)")

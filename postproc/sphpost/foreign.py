@@ -1,7 +1,7 @@
 """sphpost.foreign: other particle codes' output read as runs.
 
 A foreign run is a directory (or a glob pattern) of one file per output
-time in one of three formats (doc/postproc.md, "Other codes' runs"):
+time in one of three formats (doc/reference/postproc.md, "Other codes' runs"):
 
   plain   CSV or .npz with the columns id, x, y[, z], u, v[, w], p[, rho, m],
           the time in a '# time = T' line (CSV), a 'time' entry (.npz) or
@@ -67,9 +67,9 @@ UNIT_TOLERANCE = 30.0           # a scale this far off is a wrong unit, not a ba
 
 
 def add_options(ap):
-    """The options that describe a foreign run (doc/postproc.md); our own
+    """The options that describe a foreign run (doc/reference/postproc.md); our own
     run directories need none of them."""
-    g = ap.add_argument_group("other codes' runs (doc/postproc.md, 'Other codes' runs')")
+    g = ap.add_argument_group("other codes' runs (doc/reference/postproc.md, 'Other codes' runs')")
     g.add_argument("--case", choices=("circle2d", "ellipsoid3d", "square_rotation",
                                       "square_vortical"),
                    help="the prototype problem of a run that is not ours (required for it)")
@@ -124,7 +124,7 @@ def open_run(path, args):
             if fmt is None and os.path.isdir(path):
                 raise PostprocError(f"{e}; for another code's output give --case circle2d, "
                                     "ellipsoid3d, square_rotation or square_vortical "
-                                    "(doc/postproc.md)")
+                                    "(doc/reference/postproc.md)")
             raise
         if case and case != run.case.name:
             raise PostprocError(f"'{path}' is a {run.case.name} run, not {case}")
@@ -574,7 +574,7 @@ def wendland_weight(q):
 
 def pressure_at(point, x, p, volume, h):
     """The pressure at `point` from the particles (x, p, volume V_j) by the
-    quadratic least-squares fit of D5 (doc/theory.md): q minimises
+    quadratic least-squares fit of D5 (doc/theory/): q minimises
     Sum_j W(|x_j - point|/h) V_j (p_j - q(x_j))^2 over the particles within
     2h, evaluated at the point; exact for a quadratic pressure field such as
     the stretching patch's (X1).  With fewer than 3 (dim + 1) particles in

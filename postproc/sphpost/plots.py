@@ -17,7 +17,7 @@ Subcommands:
                       reference's interface dashed.
 
 Another code's output directory needs --case and, where its names or units
-differ from ours, --fields and the unit options (doc/postproc.md).
+differ from ours, --fields and the unit options (doc/reference/postproc.md).
 
 Each writes the PNG named by -o (default: RUN_DIR/<subcommand>.png).
 

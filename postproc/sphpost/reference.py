@@ -61,7 +61,7 @@ from . import exact, foreign
 PROG = "reference"
 CASES = ("square_rotation", "square_vortical")
 
-# The initial probe pressures by the sine series (doc/theory.md X3, X4), in
+# The initial probe pressures by the sine series (doc/theory/ X3, X4), in
 # rho omega^2 L^2 and rho V0^2: -0.147343 at A, -0.229452 at (L/4, L/4).
 SERIES_P0 = {"square_rotation": float(exact.square_rotation_pressure(0.0, 0.0)[0]),
              "square_vortical": float(exact.square_vortical_pressure(0.25, 0.25)[0])}
@@ -194,7 +194,7 @@ class Setup:
 # ---------------------------------------------------------------------------
 
 def _velocity(s):
-    """The initial velocity (U, V) as Gerris expressions of x and y (doc/theory.md
+    """The initial velocity (U, V) as Gerris expressions of x and y (doc/theory/
     X3, X4), and the indicator of the square."""
     h = s.side / 2
     inside = f"(fabs(x) < {h!r} && fabs(y) < {h!r})"

@@ -73,14 +73,14 @@ contains
     integer, intent(in) :: u
     write(u, '(a)') 'usage: mpirun -np P ./sph INPUT.nml [group.variable=value ...]'
     write(u, '(a)') '       ./sph --defaults     print a complete input file with every default'
-    write(u, '(a)') '       ./sph --input-tables print the tables of doc/input.md (markdown)'
+    write(u, '(a)') '       ./sph --input-tables print the tables of doc/reference/input.md (markdown)'
     write(u, '(a)') '       ./sph --help         print this help'
     write(u, '(a)') ''
     write(u, '(a)') 'Runs the case described by the namelist file INPUT.nml (see input/ and'
-    write(u, '(a)') 'doc/input.md).  Any variable can be overridden on the command line, e.g.'
+    write(u, '(a)') 'doc/reference/input.md).  Any variable can be overridden on the command line, e.g.'
     write(u, '(a)') '  ./sph input/circle2d.nml numerics.cfl=0.5 particles.n=5000 output.dir=runs/x'
     write(u, '(a)') 'Outputs go to output.dir: snap_NNNNN.h5 snapshots, snapshots.xdmf (open it'
-    write(u, '(a)') 'in ParaView), timeseries.csv and the effective input, input.nml (doc/output.md).'
+    write(u, '(a)') 'in ParaView), timeseries.csv and the effective input, input.nml (doc/reference/output.md).'
     write(u, '(a)') ''
     call config_write_help(u)
   end subroutine print_usage

@@ -2,7 +2,7 @@
 !> schedulers send at the time limit, and Ctrl-C) and SIGUSR1 (which mpirun
 !> passes on to every rank, and schedulers can send ahead of the limit) are
 !> caught and remembered; the time loop asks after each step and stops with
-!> a checkpoint (simulation.f90, doc/parallel.md "Stopping and continuing").
+!> a checkpoint (simulation.f90, doc/guide/restarts.md "Stopping and continuing").
 !> The handler then restores the default action, so a second signal of the
 !> same kind ends the process at once.
 !>

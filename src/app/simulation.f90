@@ -354,7 +354,7 @@ contains
       s%dc%method = DECOMP_SLAB
     case default
       ! auto: slabs have the fewest copies and partners on few ranks; beyond
-      ! 4 they grow as P and the curve's pieces win (doc/parallel.md)
+      ! 4 they grow as P and the curve's pieces win (doc/developer/parallel.md)
       s%dc%method = merge(DECOMP_SLAB, DECOMP_SFC, env%nranks <= 4)
     end select
     s%dc%balance = merge(BALANCE_PAIRS, BALANCE_PARTICLES, cfg%parallel%balance == 'pairs')
@@ -395,7 +395,7 @@ contains
   !> particles.from: the packed particles are the initial positions
   !> (position_initial) of a snapshot of a packed run of the same case,
   !> read on any number of ranks; each gets the volume |Omega|/N of the
-  !> packing and the case's initial state (doc/packing.md).  Nothing is
+  !> packing and the case's initial state (doc/theory/packing.md).  Nothing is
   !> written if the file does not fit (ok false, message on rank 0).
   subroutine read_packed(cfg, env, problem, s, dx, ok)
     type(config_t), intent(in) :: cfg
@@ -543,7 +543,7 @@ contains
       ! only their names here: the writer has each made (source) just
       ! before writing it and frees it after, so one is held at a time
       ! (all at once, a million particles on 2 ranks peaked at 423 MB a
-      ! rank, against 381: doc/ellipsoid3d.md)
+      ! rank, against 381: doc/studies/ellipsoid3d.md)
       allocate(extra(nv + ns))
       do k = 1, nv
         extra(k)%name = trim(f%vector_names(k))
@@ -784,7 +784,7 @@ contains
     integer(i8) :: n_listed, n_in_range
     integer :: k
     comm = par_max(env, s%dc%comm_time)
-    ! what the decomposition costs in copies and messages (doc/parallel.md)
+    ! what the decomposition costs in copies and messages (doc/developer/parallel.md)
     halo = par_sum(env, real(s%parts%n_halo - s%dc%halo%n_images, wp)) / max(run%n_global, 1_i8)
     partners = par_sum(env, real(decomp_partners(s%dc), wp)) / env%nranks
     partners_max = par_max(env, real(decomp_partners(s%dc), wp))

@@ -44,7 +44,7 @@ module case_base
     !> the mirror planes' mask (mirrors; particles.symmetry), 0 for none
     integer :: mirror = 0
     !> > 0: the set-up placed a first guess to be relaxed by the packing
-    !> (doc/packing.md) in the ball of this radius, after which
+    !> (doc/theory/packing.md) in the ball of this radius, after which
     !> initial_state sets the physical state at the packed positions
     real(wp) :: pack_radius = 0
     !> the packing's slab of each axis's plane, in dx (M5, M6)
@@ -152,7 +152,7 @@ module case_base
     !> fields of the flow: v(3, n) for a vector, s(n) for a scalar, the
     !> other left unallocated.  One field a call, so that a snapshot holds
     !> one beside the particles (at a million particles on 2 ranks, all at
-    !> once took a rank above 400 MB: doc/ellipsoid3d.md).
+    !> once took a rank above 400 MB: doc/studies/ellipsoid3d.md).
     subroutine field_i(self, t, name, parts, flow, v, s)
       import :: case_t, particles_t, case_flow_t, wp
       class(case_t), intent(inout) :: self

@@ -1,5 +1,5 @@
 !> The stretching circular patch (2D): its group &circle2d (radius R, A0)
-!> and the initial velocity u = -A0 x, v = A0 y (doc/theory.md X1); the
+!> and the initial velocity u = -A0 x, v = A0 y (doc/theory/ X1); the
 !> set-up, diagnostics and exact solution are case_stretching's.
 module case_circle2d
   use kinds, only: wp

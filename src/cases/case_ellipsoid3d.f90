@@ -48,10 +48,10 @@ contains
             'summing to zero within 1e-12, not all zero', &
             'initial velocity u_k = rates(k) A0 x_k (rates in units of A0)'), &
       var_t(0, 'prepared', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
-            'add the compressible part of the start (I1, doc/numerics.md): ' // &
+            'add the compressible part of the start (I1, doc/theory/solutions.md): ' // &
             'no acoustic mode from P''(0)', &
             doc='add the compressible part of the initial velocity (I1, ' // &
-                '[numerics.md](numerics.md)): without it the falling centre pressure ' // &
+                '[solutions](../theory/solutions.md)): without it the falling centre pressure ' // &
                 'rings the lowest acoustic mode (6-8 % of P(0) at c0 = 10); ' // &
                 'input/ellipsoid3d.nml sets it')]
     if (.false.) vars(1)%help = self%help
@@ -93,7 +93,7 @@ contains
     end select
   end function ellipsoid3d_value_text
 
-  !> The rates of a divergence-free linear field sum to zero (doc/theory.md X1).
+  !> The rates of a divergence-free linear field sum to zero (doc/theory/ X1).
   subroutine ellipsoid3d_check(self, var, what, hint)
     class(ellipsoid3d_t), intent(in) :: self
     character(len=:), allocatable, intent(out) :: var, what, hint

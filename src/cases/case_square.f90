@@ -1,12 +1,12 @@
 !> Prototype problems 2 and 3: the free-surface square patches of side L,
 !> centred at the origin, on a square lattice of spacing dx.
 !>
-!>  - `square_rotation` (paper eq. 2, doc/theory.md X3): rigid rotation
+!>  - `square_rotation` (paper eq. 2, doc/theory/ X3): rigid rotation
 !>    u = omega y, v = -omega x; Laplacian p0 = 2 rho omega^2, p0 = 0 on the
 !>    edges.  Conserves kinetic energy (KE0 = rho omega^2 L^4/12) and angular
 !>    momentum; symmetric under rotation by 90 degrees.  The negative
 !>    pressure makes it the test of the tensile instability control (E7).
-!>  - `square_vortical` (paper eq. 3 corrected, doc/theory.md X4):
+!>  - `square_vortical` (paper eq. 3 corrected, doc/theory/ X4):
 !>    u = V0 (f(y) - e^-4), v = -V0 (f(x) - e^-4), f(s) = exp(-(4 s/L)^2);
 !>    Laplacian p0 = 2 rho V0^2 f'(x) f'(y) = 2 rho (32 V0/L^2)^2 x y f(x) f(y).
 !>    Symmetric under the reflection (x, y) -> (-y, -x); its net momentum is
@@ -224,7 +224,7 @@ contains
     w = -v0 * (dfdx(x, l) + dfdx(y, l))
   end function vortical_vorticity
 
-  !> Time-series columns (doc/output.md).
+  !> Time-series columns (doc/reference/output.md).
   subroutine square_columns(self, names)
     class(square_patch_t), intent(in) :: self
     character(len=32), allocatable, intent(out) :: names(:)
@@ -411,7 +411,7 @@ contains
       write(unit, '(a,f8.4,a,i0,a,f8.5,a)') 'Vortical square at t V0/L = ', t * rate / l, &
         ' (', self%n_global, ' particles, dx = ', self%dx / l, ' L):'
       write(unit, '(2x,a,f10.6,a)') 'initial pressure p0(L/4, L/4) ', &
-        self%p_quarter0 / scale_p, ' rho V0^2 (doc/theory.md X4: -0.229452)'
+        self%p_quarter0 / scale_p, ' rho V0^2 (doc/theory/ X4: -0.229452)'
       write(unit, '(2x,a,f8.3,a)') 'kinetic energy change since t = 0 ', &
         100 * (ke / self%ke_start - 1), ' %'
       write(unit, '(2x,a,es10.3,a)') 'angular momentum change since t = 0 ', &

@@ -1,6 +1,6 @@
 !> The rotating square patch (2D): its group &square_rotation (side L,
 !> omega) and the initial rigid rotation u = omega y, v = -omega x
-!> (doc/theory.md X3); the set-up, diagnostics and reference solution are
+!> (doc/theory/ X3); the set-up, diagnostics and reference solution are
 !> case_square's.
 module case_square_rotation
   use kinds, only: wp

@@ -1,6 +1,6 @@
 !> The vortical square patch (2D): its group &square_vortical (side L, V0)
 !> and the initial u = V0 (f(y) - e^-4), v = -V0 (f(x) - e^-4),
-!> f(s) = exp(-(4s/L)^2) (doc/theory.md X4); the set-up, diagnostics and
+!> f(s) = exp(-(4s/L)^2) (doc/theory/ X4); the set-up, diagnostics and
 !> reference solution are case_square's.
 module case_square_vortical
   use kinds, only: wp
@@ -42,7 +42,7 @@ contains
             'V0: initial u = V0 (f(y) - e^-4), v = -V0 (f(x) - e^-4), f(s) = exp(-(4s/L)^2)', &
             doc='V0: initial u = V0 (f(y) - e^-4), v = -V0 (f(x) - e^-4), f(s) = exp(-(4 ' // &
                 's/L)^2); the pressure solves Laplacian p = 2 rho0 (32 V0/L^2)^2 x y ' // &
-                'f(x) f(y), p = 0 on the edges ([doc/theory.md](theory.md) X4)')]
+                'f(x) f(y), p = 0 on the edges ([theory](../theory/solutions.md) X4)')]
     if (.false.) vars(1)%help = self%help
   end function square_vortical_vars
 

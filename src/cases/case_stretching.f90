@@ -3,7 +3,7 @@
 !> recorded beside the SPH values.  This is what the two cases share; their
 !> own groups are in case_circle2d and case_ellipsoid3d.
 !>
-!> Initial state (paper eq. 1, doc/theory.md X1): u_k = alpha_k x_k,
+!> Initial state (paper eq. 1, doc/theory/ X1): u_k = alpha_k x_k,
 !> p = P(0) (1 - |x|^2/R^2), rho from the inverse equation of state,
 !> m = rho times the particle's area (volume).
 module case_stretching

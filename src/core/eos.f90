@@ -1,4 +1,4 @@
-!> Equations of state (doc/theory.md E6) and their inverses.
+!> Equations of state (doc/theory/ E6) and their inverses.
 module eos
   use kinds, only: wp
   implicit none

@@ -1,5 +1,5 @@
 !> Exact incompressible solution of the free-surface ellipse (2D) and
-!> ellipsoid (3D), doc/theory.md X1, X2; prototype problem 1 of the
+!> ellipsoid (3D), doc/theory/ X1, X2; prototype problem 1 of the
 !> paper.  The dimension is data: the same code serves dim = 2 and 3.
 !>
 !> (X1)  u_k = alpha_k(t) x_k,  Sum_k alpha_k = 0,

@@ -1,5 +1,5 @@
 !> The time integrators of the state y = (x, u, rho), dy/dt = k(y) =
-!> (u, du, drho) (doc/theory.md T1, T2), by reverse communication: the
+!> (u, du, drho) (doc/theory/ T1, T2), by reverse communication: the
 !> caller evaluates k at stage s (s = 1 .. integrator_stages) into u, du
 !> and drho, then integrator_advance(s) moves the state to the input of
 !> stage s + 1, or after the last stage to the end of the step.  So the

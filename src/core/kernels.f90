@@ -1,4 +1,4 @@
-!> Smoothing kernels (doc/theory.md K1-K3), normalised exactly in 2D and 3D.
+!> Smoothing kernels (doc/theory/ K1-K3), normalised exactly in 2D and 3D.
 !>
 !> With q = r/h, each kernel gives W(r) and the gradient factor F(r) = W'(r)/r,
 !> so that grad_i W_ij = F(r_ij) (x_i - x_j) without a division by r.

@@ -36,7 +36,7 @@ contains
   !> work arrays, the first list builds) stays resident under the time
   !> loop's arrays: a million packed particles on 2 ranks peaked at 425 MB
   !> per rank with the dynamic threshold and 373 MB with this one
-  !> (doc/ellipsoid3d.md).  glibc's mallopt (Debian's C library).
+  !> (doc/studies/ellipsoid3d.md).  glibc's mallopt (Debian's C library).
   subroutine map_large_arrays()
     interface
       integer(c_int) function mallopt(param, value) bind(C, name='mallopt')

@@ -1,4 +1,4 @@
-!> Mirror symmetry planes through the origin (doc/symmetry.md, M1-M5).
+!> Mirror symmetry planes through the origin (doc/theory/mirrors.md, M1-M5).
 !>
 !> A run with planes holds the part x_k >= 0 of the body on each mirrored
 !> axis k; a particle on a plane is one with its images there (M5).  A
@@ -32,13 +32,13 @@ module mirrors
   !> (M5) The slab next to a plane that the points on it stand for, in dx:
   !> the packing's first guess gives each plane a lattice whose points, at
   !> weight 1/2, fill it, and the guess and the packing keep every other
-  !> particle this far off each plane (doc/symmetry.md, "The start-up dip").
+  !> particle this far off each plane (doc/studies/symmetry.md, "The start-up dip").
   real(wp), parameter :: PLANE_SLAB = 0.25_wp
   !> (M6) The slab of a plane the flow approaches (its normal rate negative):
   !> deeper, so that no particle starts within dx/2 of such a plane and none
   !> faces its own image closer than dx.  A particle and its image cannot
   !> slide past each other as two particles of the whole body do, and the
-  !> compression normal to the plane brings them together (doc/symmetry.md,
+  !> compression normal to the plane brings them together (doc/studies/symmetry.md,
   !> "M6").
   real(wp), parameter :: PLANE_SLAB_APPROACH = 0.5_wp
 

@@ -2,7 +2,7 @@
 !> once, in particle_fields.inc, with its snapshot dataset name, its number
 !> of components and the transports it takes part in.  Migration, the halo,
 !> snapshots and restarts loop over this table instead of naming the fields
-!> (doc/parallel.md).  Adding a field is its line in particle_fields.inc.
+!> (doc/developer/parallel.md).  Adding a field is its line in particle_fields.inc.
 module particle_fields
   implicit none
   private

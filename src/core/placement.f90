@@ -4,10 +4,10 @@
 !> (k - 1/2) dx, k = 1..K with K dx = R, each evenly filled; every particle
 !> gets the area (volume) of its ring divided by the ring's count, so the
 !> volumes add up to the body's exactly.  It survives strong stretching
-!> where a clipped lattice fails (doc/theory.md, "Measurements the defaults rest on").
+!> where a clipped lattice fails (doc/theory/, "Measurements the defaults rest on").
 !> 'lattice': a square (cubic) lattice of spacing dx clipped to the body,
 !> each particle with volume dx^dim.
-!> 'packed': the first guess of the packing (doc/packing.md): the clipped
+!> 'packed': the first guess of the packing (doc/theory/packing.md): the clipped
 !> lattice with every point moved by a pseudo-random offset of up to
 !> PACK_NOISE dx per axis (a hash of the particle's number, so the guess is
 !> the same on every rank and every run) and kept inside R - dx/4; every
@@ -29,7 +29,7 @@
 !> fills the rest; jittered, they are reflected to the part's side and kept
 !> slab(k) dx off the planes.  The guess is then
 !> uniform in weight up to the plane, and the packing has no deficit to
-!> spread (doc/symmetry.md, "The start-up dip").
+!> spread (doc/studies/symmetry.md, "The start-up dip").
 module placement
   use kinds, only: wp, pi, i8
   use shares, only: share_range

@@ -1,4 +1,4 @@
-!> The Dirichlet Poisson problem on a square (doc/theory.md X5): Laplacian p = f
+!> The Dirichlet Poisson problem on a square (doc/theory/ X5): Laplacian p = f
 !> on [-L/2, L/2]^2 with p = 0 on the edges, solved on a uniform grid by
 !> FFTW's type-I discrete sine transform, then interpolated to any point.
 !>

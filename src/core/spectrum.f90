@@ -1,4 +1,4 @@
-!> The dominant frequency of a sampled signal (doc/theory.md X6): the acoustic
+!> The dominant frequency of a sampled signal (doc/theory/ X6): the acoustic
 !> oscillation of a probe pressure around its slow incompressible value.
 !>
 !> The samples (t_k, y_k), not necessarily evenly spaced, are resampled

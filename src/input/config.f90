@@ -1,4 +1,4 @@
-!> The input of a run (doc/input.md): Fortran namelist groups, one derived
+!> The input of a run (doc/reference/input.md): Fortran namelist groups, one derived
 !> type per group, command-line overrides `group.variable=value` and a
 !> validation pass.  Every error is one message naming the group, the
 !> variable, the offending value and what is allowed.
@@ -102,7 +102,7 @@ contains
       call validate(config_scaled(cfg), path, origins, errmsg)
       if (allocated(errmsg)) then
         errmsg = errmsg // ' (the value after the resolution scaling of &particles n_ref = ' &
-                 // real_str(cfg%particles%n_ref) // ', doc/convergence.md)'
+                 // real_str(cfg%particles%n_ref) // ', doc/studies/convergence.md)'
         return
       end if
     end if
@@ -110,7 +110,7 @@ contains
     errmsg = ''
   end subroutine config_load
 
-  !> The configuration with the resolution scaling applied (doc/convergence.md,
+  !> The configuration with the resolution scaling applied (doc/studies/convergence.md,
   !> S1): with particles%n_ref > 0 and s = (n/n_ref)^(1/dim) (= dx_ref/dx),
   !>   h/dx = h_over_dx s^h_exponent,  c0 = c0 s^c0_exponent,
   !>   alpha = alpha s^alpha_exponent,  delta = delta s^delta_exponent;
@@ -146,7 +146,7 @@ contains
       'sph input file: every group and variable at its default (sph --defaults).', &
       'Fortran namelist syntax: strings in quotes, ''!'' starts a comment; any', &
       'group or variable may be left out, and any variable can be set on the', &
-      'command line after the file as group.variable=value (doc/input.md).'])
+      'command line after the file as group.variable=value (doc/reference/input.md).'])
   end subroutine config_write_defaults
 
   !> Writes the effective configuration as a namelist file (it reads back to
@@ -173,7 +173,7 @@ contains
     call list_groups(groups)
     call list_vars(vars)
     defaults = config_defaults()
-    write(unit, '(a)') 'Input: a Fortran namelist file (doc/input.md) with the groups below;', &
+    write(unit, '(a)') 'Input: a Fortran namelist file (doc/reference/input.md) with the groups below;', &
       'any group or variable may be left out (defaults).  After the file, any number', &
       'of overrides group.variable=value, applied in order, e.g. numerics.cfl=0.5', &
       'output.dir=runs/x output.probes(1,2)=0.25 ellipsoid3d.rates=1,1,-2.', &
@@ -188,7 +188,7 @@ contains
     end do
   end subroutine config_write_help
 
-  !> Writes the tables of doc/input.md (markdown), for each group a line
+  !> Writes the tables of doc/reference/input.md (markdown), for each group a line
   !> `&group` and the table of its variables (input_tables: table_row).
   subroutine config_write_input_tables(unit)
     integer, intent(in) :: unit
@@ -872,7 +872,7 @@ contains
     end do
 
     ! Stability of the time integrators in the acoustic CFL (measured on
-    ! circle2d, doc/numerics.md): rk4 is unaffected up to 2.4 and degrades
+    ! circle2d, doc/studies/numerics.md): rk4 is unaffected up to 2.4 and degrades
     ! at 2.8; pc2 is fine at 1.0 and unstable from 1.1.
     call origin_of(origins, path, 'numerics.cfl', origin, line)
     if (c%numerics%integrator == 'pc2' .and. c%numerics%cfl > PC2_CFL_MAX) then
@@ -890,7 +890,7 @@ contains
     end if
 
     ! (H2) is the adjoint of the renormalised divergence: the pair keeps
-    ! the energy only together (doc/theory.md)
+    ! the energy only together (doc/theory/)
     if (c%numerics%pressure_gradient == 'renormalised' .and. &
         c%numerics%divergence /= 'renormalised') then
       call origin_of(origins, path, 'numerics.pressure_gradient', origin, line)

@@ -1,4 +1,4 @@
-!> The generic namelist groups (doc/input.md): the rows describing their
+!> The generic namelist groups (doc/reference/input.md): the rows describing their
 !> variables (GENERIC_VARS), and one derived type per group, every component
 !> at its default, with its reader and its values as text (what a case
 !> gives for its own group, case_base).  The cases see the groups they need.
@@ -60,7 +60,7 @@ module input_params
     group_t('physics', 'the fluid'), &
     group_t('numerics', 'SPH discretisation and time stepping'), &
     group_t('output', 'run directory, snapshots, time series and pressure probes'), &
-    group_t('parallel', 'the domain decomposition across MPI ranks (doc/parallel.md)')]
+    group_t('parallel', 'the domain decomposition across MPI ranks (doc/developer/parallel.md)')]
 
   ! The lists of allowed words of var_t%choices.
   integer, parameter :: CH_CASE = 1, CH_PLACEMENT = 2, CH_EOS = 3, &
@@ -85,7 +85,7 @@ module input_params
           '(0: no limit)', &
           doc='wall-clock seconds the run may take (the job''s time limit less a margin ' // &
               'for the start of mpirun): it stops early enough to write `checkpoint.h5` ' // &
-              'and exits with code 75; 0: no limit (doc/parallel.md, "Stopping and ' // &
+              'and exits with code 75; 0: no limit (doc/guide/restarts.md, "Stopping and ' // &
               'continuing")'), &
     var_t(G_RUN, 'restart', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
           'empty, or an existing snapshot file of the same case', &
@@ -94,16 +94,16 @@ module input_params
           doc='continue the run from this snapshot (`runs/circle2d/snap_00010.h5`) or ' // &
               'checkpoint (`runs/circle2d/checkpoint.h5`), with any number of ranks; ' // &
               'the snapshot numbering, XDMF index and time series in `output.dir` ' // &
-              'continue (doc/parallel.md)'), &
+              'continue (doc/guide/restarts.md)'), &
     var_t(G_PARTICLES, 'n', T_INT, SCALAR, LO_GE, HI_LE, 50.0_wp, 2000000000.0_wp, CH_NONE, &
           '', 'approximate number of particles; the spacing dx follows from it'), &
     var_t(G_PARTICLES, 'placement', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_PLACEMENT, '', 'rings: concentric rings (shells); lattice: square (cubic) ' // &
-          'lattice clipped; packed: relaxed (doc/packing.md)', &
+          CH_PLACEMENT, '', 'rings: concentric (shells); lattice: a clipped square ' // &
+          '(cubic); packed: relaxed (doc/theory/packing.md)', &
           doc='`rings`: concentric rings (3D: shells) of spacing dx; `lattice`: square ' // &
               '(cubic) lattice clipped to the body; `packed`: relaxed into a uniform, ' // &
               'isotropic arrangement with a sharp surface (circle2d and ellipsoid3d ' // &
-              'only, [packing.md](packing.md); both input files use it). The square ' // &
+              'only, [packing](../theory/packing.md); both input files use it). The square ' // &
               'patches are always on a lattice of nint(sqrt(n)) x nint(sqrt(n)) ' // &
               'particles and refuse `packed`'), &
     var_t(G_PARTICLES, 'h_over_dx', T_REAL, SCALAR, LO_GE, HI_LE, 1.0_wp, 8.0_wp, CH_NONE, &
@@ -112,8 +112,8 @@ module input_params
               '`n_ref > 0`)'), &
     var_t(G_PARTICLES, 'n_ref', T_REAL, SCALAR, LO_GE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
           'resolution scaling: h_over_dx, c0, alpha, delta hold at this count; 0: none ' // &
-          '(doc/convergence.md)', &
-          doc='resolution scaling (doc/convergence.md, S1): `h_over_dx`, `c0`, `alpha` ' // &
+          '(doc/studies/convergence.md)', &
+          doc='resolution scaling (doc/theory/scaling.md, S1): `h_over_dx`, `c0`, `alpha` ' // &
               'and `delta` hold as given at `n_ref` particles and scale with s = ' // &
               '(n/n_ref)^(1/dim) = dx_ref/dx by their exponents; 0: no scaling. The run ' // &
               'prints the values it uses; the echoed `input.nml` keeps the given ones'), &
@@ -133,14 +133,14 @@ module input_params
               'takes h/dx, c0, alpha and delta from `n`: then `n` must be the file''s ' // &
               'count (within 2 %)'), &
     var_t(G_PARTICLES, 'symmetry', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
-          CH_SYMMETRY, '', 'mirror planes x = 0, y = 0, z = 0 named by their normals: ' // &
-          'the run holds the part x_k >= 0 (doc/symmetry.md)', &
+          CH_SYMMETRY, '', 'mirror planes x = 0, y = 0, z = 0 by their normals: ' // &
+          'the run holds the part x_k >= 0 (doc/theory/mirrors.md)', &
           doc='mirror planes through the centre, named by their normal axes (`''xyz''`: ' // &
               'the three coordinate planes): the run holds the part of the body with ' // &
               'x_k >= 0 on each, and the particles near a plane see their mirror images ' // &
               'as neighbours, so that the part moves as the whole body would; a ' // &
               'particle may lie on a plane, with its share of the mass (M5, ' // &
-              '[symmetry.md](symmetry.md)). `n` stays the whole body''s count; the run ' // &
+              '[mirrors](../theory/mirrors.md)). `n` stays the whole body''s count; the run ' // &
               'holds about n / 2^(planes). circle2d and ellipsoid3d only, with `lattice` or ' // &
               '`packed` and without shifting'), &
     var_t(G_PHYSICS, 'rho0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
@@ -175,7 +175,7 @@ module input_params
           0.0_wp, 0.0_wp, CH_NONE, '', 'viscosity on u_ji less its linear part ' // &
           'from the strain rates of i and j: none on a linear velocity field', &
           doc='the viscosity acts on u_ji less its linear part, reconstructed from the ' // &
-              'renormalised strain rates of i and j ([doc/theory.md](theory.md) R1): ' // &
+              'renormalised strain rates of i and j ([theory](../theory/equations.md) R1): ' // &
               'zero on any linear velocity field, also at the free surface. Its sums ' // &
               'join the first pass where L_i is computed, else one more pass'), &
     var_t(G_NUMERICS, 'alpha_exponent', T_REAL, SCALAR, LO_GE, HI_LE, -2.0_wp, 2.0_wp, &
@@ -196,21 +196,21 @@ module input_params
           doc='smallest neighbour-list skin, in units of h; the list is rebuilt when an ' // &
               'unlisted pair could come within the support during the next step ' // &
               '(affine-motion test), and a rebuild widens the skin when one step''s ' // &
-              'motion needs more (see doc/numerics.md)'), &
+              'motion needs more (see doc/studies/numerics.md)'), &
     var_t(G_NUMERICS, 'tensile', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_NONE, '', 'tensile instability control (Monaghan 2000): a repulsion ' // &
           'between particles under negative pressure', &
-          doc='tensile instability control (Monaghan 2000, [doc/theory.md](theory.md) ' // &
+          doc='tensile instability control (Monaghan 2000, [theory](../theory/equations.md) ' // &
               'E7): a repulsion -Sum_j m_j (R_i + R_j) (W_ij/W(dx))^n grad_i W_ij ' // &
               'between particles under negative pressure. Needed by the square patches ' // &
               'unless `shifting` keeps the particles regular (both square inputs use ' // &
-              'shifting, which measured better: doc/numerics.md)'), &
+              'shifting, which measured better: doc/studies/numerics.md)'), &
     var_t(G_NUMERICS, 'tensile_eps', T_REAL, SCALAR, LO_GT, HI_LE, 0.0_wp, 1.0_wp, CH_NONE, &
           '', 'tensile control strength: R_i = tensile_eps |p_i|/rho_i^2 where p_i < 0', &
           doc='R_i = tensile_eps |p_i|/rho_i^2 where p_i < 0, else 0. 0.4 is the best ' // &
               'measured with `wendland_c2` at h = 2 dx: 0.2 (Monaghan''s value) lets the ' // &
               'rotating square open voids, 0.5 and more compress its core ' // &
-              '(doc/numerics.md)'), &
+              '(doc/studies/numerics.md)'), &
     var_t(G_NUMERICS, 'tensile_n', T_INT, SCALAR, LO_GE, HI_LE, 1.0_wp, 8.0_wp, CH_NONE, &
           '', 'tensile control exponent n of (W_ij/W(dx))^n'), &
     var_t(G_NUMERICS, 'pressure_gradient', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, &
@@ -225,7 +225,7 @@ module input_params
               'energy); `renormalised` (H2): -(1/rho_i) Sum_j (p_i B_i + p_j B_j) grad_i ' // &
               'W_ij V_j, B = L ramped to I for lambda from 0.55 to 0.4, the adjoint of ' // &
               'the renormalised divergence (required; it uses B too): kinetic plus ' // &
-              'internal energy kept (doc/theory.md)'), &
+              'internal energy kept (doc/theory/)'), &
     var_t(G_NUMERICS, 'divergence', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_DIVERGENCE, '', 'velocity divergence of the continuity equation: standard, ' // &
           'or renormalised (exact for linear u)', &
@@ -235,18 +235,18 @@ module input_params
               '(L_i the renormalisation matrix, E3), 55 % more time a step. Momentum and ' // &
               'angular momentum stay exactly conserved either way. The renormalised form ' // &
               'cut the velocity error of circle2d and ellipsoid3d 1.2 to 3.7 times ' // &
-              '(doc/numerics.md)'), &
+              '(doc/studies/numerics.md)'), &
     var_t(G_NUMERICS, 'renormalise', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_RENORMALISE, '', 'L_i and lambda_i of the renormalised operators at every ' // &
-          'stage, or once a step (doc/numerics.md)', &
+          'stage, or once a step (doc/studies/numerics.md)', &
           doc='when the renormalised operators compute L_i and lambda_i: at every RK4 ' // &
               'stage, or once a step for all its stages (27 % less time a step on ' // &
-              'ellipsoid3d, errors unchanged: [numerics.md](numerics.md))'), &
+              'ellipsoid3d, errors unchanged: [numerics](../studies/numerics.md))'), &
     var_t(G_NUMERICS, 'shifting', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
           CH_NONE, '', 'particle shifting after each step (delta-plus-SPH, Sun et al. ' // &
           '2017), none on the free surface', &
           doc='particle shifting after each step (delta-plus-SPH, Sun et al. 2017, ' // &
-              '[doc/theory.md](theory.md) E8): dr_i = -CFL Ma (2h)^2 Sum_j [1 + 0.2 ' // &
+              '[theory](../theory/equations.md) E8): dr_i = -CFL Ma (2h)^2 Sum_j [1 + 0.2 ' // &
               '(W_ij/W(dx))^4] grad_i W_ij V_j, none on the free surface (lambda < ' // &
               '0.55), only tangential near it (lambda < 0.9). Positions only. Keeps the ' // &
               'square patches in one piece without the tensile control (on in ' // &
@@ -256,7 +256,7 @@ module input_params
           CH_NONE, '', 'pair sums independent of the partners'' order: symmetric ' // &
           'cases stay exactly symmetric', &
           doc='each pair term is rounded onto two fixed grids and summed exactly ' // &
-              '([doc/theory.md](theory.md) B1), so that a particle''s sums do not depend ' // &
+              '([theory](../theory/operators.md) B1), so that a particle''s sums do not depend ' // &
               'on the order of its partners: the square patches, symmetric under a ' // &
               'rotation or a mirror, then stay symmetric to the last bit. The ' // &
               'standard operators only (with shifting, the tensile control and either ' // &
@@ -273,7 +273,7 @@ module input_params
           CH_NONE, '', 'probes fit a quadratic to the pressures in the support (exact for ' // &
           'quadratic p) instead of the Shepard mean', &
           doc='the probes fit a quadratic polynomial to the particle pressures within the ' // &
-              'kernel support by weighted least squares ([doc/theory.md](theory.md) D5): ' // &
+              'kernel support by weighted least squares ([theory](../theory/diagnostics.md) D5): ' // &
               'exact for a quadratic pressure field, where the Shepard mean (D4) is off ' // &
               'by O(h^2) (0.56 (h/R)^2 P at the centre of the circular patch)'), &
     var_t(G_OUTPUT, 'mirror', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, &
@@ -281,7 +281,7 @@ module input_params
           'and its reflections) instead of the part', &
           doc='with `particles.symmetry`: every snapshot holds the whole body, the part ' // &
               'followed by its reflections (for ParaView), instead of the part alone; ' // &
-              'a restart from it reads the part ([symmetry.md](symmetry.md)). ' // &
+              'a restart from it reads the part ([mirrors](../theory/mirrors.md)). ' // &
               'Checkpoints always hold the part'), &
     var_t(G_OUTPUT, 'n_probes', T_INT, SCALAR, LO_GE, HI_LE, 0.0_wp, real(MAX_PROBES, wp), &
           CH_NONE, '', 'number of pressure probes'), &
@@ -294,7 +294,7 @@ module input_params
           CH_DECOMPOSITION, '', 'auto (slab up to 4 ranks, else sfc), slab, METIS ' // &
           'partition of cells, or sfc (pieces of a Hilbert curve)', &
           doc='`auto`: `slab` on up to 4 ranks, `sfc` on more (the measured choice, ' // &
-              'doc/parallel.md); `slab`: slabs along the longest axis of the particle ' // &
+              'doc/developer/parallel.md); `slab`: slabs along the longest axis of the particle ' // &
               'cloud; `metis`: a METIS partition of the graph of occupied cells; `sfc`: ' // &
               'the cells in the order of a Hilbert space-filling curve, cut into pieces ' // &
               'of equal work'), &
@@ -328,7 +328,7 @@ module input_params
     !> resolution scaling (config_scaled): 0 for none
     real(wp) :: n_ref = 0
     real(wp) :: h_exponent = 0
-    integer :: pack_iterations = 300                     !< doc/packing.md
+    integer :: pack_iterations = 300                     !< doc/theory/packing.md
     character(len=DIR_LEN_MAX + 1) :: from = ''          !< snapshot of a packed distribution
     character(len=NAME_LEN) :: symmetry = 'none'         !< mirror planes (mirrors)
   contains
@@ -366,7 +366,7 @@ module input_params
     logical :: tensile = .false.                         !< (E7) tensile instability control
     real(wp) :: tensile_eps = 0.4_wp                     !< measured best with wendland_c2, h = 2 dx
     integer :: tensile_n = 4
-    !> (E4) or the higher-order form (H1, doc/theory.md)
+    !> (E4) or the higher-order form (H1, doc/theory/)
     character(len=NAME_LEN) :: pressure_gradient = 'standard'
     character(len=NAME_LEN) :: renormalise = 'stage'     !< first pass every stage, or step
     character(len=NAME_LEN) :: divergence = 'standard'   !< (E1), or renormalised (E3)

@@ -1,4 +1,4 @@
-!> The tables of doc/input.md: one markdown row per input variable, made
+!> The tables of doc/reference/input.md: one markdown row per input variable, made
 !> from its description (var_t) alone, so that the documentation is the
 !> program's (config_write_input_tables writes them; `make input-doc`).
 module input_tables
@@ -37,7 +37,7 @@ contains
            md_cell(allowed(v, words)) // ' | ' // md_cell(meaning) // ' |'
   end function table_row
 
-  !> What is allowed for v, as doc/input.md writes it: the words, the range
+  !> What is allowed for v, as doc/reference/input.md writes it: the words, the range
   !> (range_text, as the messages say it), then the rule, if any.
   function allowed(v, words) result(s)
     type(var_t), intent(in) :: v

@@ -2,7 +2,7 @@
 !> what it is and what is allowed.  config keeps the rows of the generic
 !> groups; each case gives the rows of its own group (case_base).  The range
 !> checks, the comments of the written files, `--help` and the tables of
-!> doc/input.md (`--input-tables`) come from them.
+!> doc/reference/input.md (`--input-tables`) come from them.
 module input_var
   use kinds, only: wp
   implicit none
@@ -28,7 +28,7 @@ module input_var
     integer :: choices           !< config's list of allowed words, CH_NONE if free
     character(len=60) :: rule    !< what is allowed when no range or list says it
     character(len=110) :: help   !< what the variable is (--help, --defaults)
-    !> the documentation's fuller text (doc/input.md, markdown); help when empty
+    !> the documentation's fuller text (doc/reference/input.md, markdown); help when empty
     character(len=700) :: doc = ''
   end type var_t
 

@@ -1,5 +1,5 @@
 !> Particle snapshots in parallel HDF5, and the XDMF index that makes the run
-!> a time series in ParaView (doc/output.md describes the files).
+!> a time series in ParaView (doc/reference/output.md describes the files).
 !>
 !> One file per output time for the whole run, written collectively by every
 !> rank of the communicator: rank r contributes its n_r local particles as

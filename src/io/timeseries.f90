@@ -1,4 +1,4 @@
-!> The per-step time-series file timeseries.csv (doc/output.md): one header
+!> The per-step time-series file timeseries.csv (doc/reference/output.md): one header
 !> line naming the columns, then one row per sample, comma-separated, numbers
 !> in ES format with 16 significant digits, a missing value as `nan`.
 !>

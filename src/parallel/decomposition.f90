@@ -2,7 +2,7 @@
 !> domain and halo_exchange): re-balancing when the work is uneven,
 !> migration of particles to their owners, the halo copies within the list
 !> radius and their refresh, with counts and the time spent communicating
-!> (doc/parallel.md).
+!> (doc/developer/parallel.md).
 module decomposition
   use kinds, only: wp, i8
   use particles, only: particles_t

@@ -1,5 +1,5 @@
 !> The motion of the particles split into an affine part and a residual,
-!> for the neighbour-list validity test (doc/numerics.md, "When the list is
+!> for the neighbour-list validity test (doc/studies/numerics.md, "When the list is
 !> rebuilt").
 !>
 !> A list built at positions x0 with radius r_list = support + skin holds

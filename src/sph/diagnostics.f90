@@ -1,4 +1,4 @@
-!> Global diagnostics of the particle state (doc/theory.md D1, D2, D4),
+!> Global diagnostics of the particle state (doc/theory/ D1, D2, D4),
 !> reduced over all ranks.  With mirror planes (the optional mask, mirrors)
 !> they are the whole body's: the part's sums times the copies, the
 !> centre of mass on the planes, and the probes summing over the owned

@@ -1,5 +1,5 @@
 !> Diagnostics of the free-surface patches beyond the global sums of
-!> `diagnostics` (doc/theory.md D1, D3): angular momentum, the positions of
+!> `diagnostics` (doc/theory/ D1, D3): angular momentum, the positions of
 !> all particles by global id (for symmetry checks), the topology of the
 !> fluid region (components and holes).  The vorticity and the
 !> free-surface indicator of the snapshots come from the solver's own list

@@ -1,4 +1,4 @@
-!> The weakly-compressible SPH right-hand side (doc/theory.md E1-E9, H1).
+!> The weakly-compressible SPH right-hand side (doc/theory/ E1-E9, H1).
 !>
 !> Notation: x_ij = x_i - x_j, r = |x_ij|, g = grad_i W_ij = F(r) x_ij with
 !> F = W'/r < 0 (kernels module), V_j = m_j/rho_j, u_ji = u_j - u_i.  Pairs
@@ -8,7 +8,7 @@
 !> does not depend on the decomposition: results are bitwise the same for
 !> any number of ranks.  Terms for halo copies land in slots that are
 !> ignored (their owners compute them).  The pair loop of rhs_evaluate is
-!> pair_rows.inc, written for the vectoriser (doc/ellipsoid3d.md, "Speed"):
+!> pair_rows.inc, written for the vectoriser (doc/studies/ellipsoid3d.md, "Speed"):
 !> a row's terms for i are summed in LANES partial sums, an order fixed by
 !> the row alone, which keeps that property.
 module fluid_rhs
@@ -43,17 +43,17 @@ module fluid_rhs
   !> LAMBDA_NEAR near it.
   real(wp), parameter :: LAMBDA_SURFACE = 0.55_wp, LAMBDA_NEAR = 0.9_wp
   !> (H1) the higher-order gradient's weight rises linearly from 0 at
-  !> LAMBDA_BLEND to 1 at LAMBDA_NEAR (doc/numerics.md, "the blend")
+  !> LAMBDA_BLEND to 1 at LAMBDA_NEAR (doc/studies/numerics.md, "the blend")
   real(wp), parameter :: LAMBDA_BLEND = 0.7_wp
   !> (H2) the pair's matrix B_i goes from L_i at LAMBDA_SURFACE to I at
   !> LAMBDA_OUTER, across the outer layer of the free surface: L_i alone
-  !> there (B = L) was measured unstable (doc/convergence.md)
+  !> there (B = L) was measured unstable (doc/studies/convergence.md)
   real(wp), parameter :: LAMBDA_OUTER = 0.4_wp
   !> (H1) the corrected form's largest weight: a tenth of the
   !> conservative (E4) stays everywhere, whose term 2 p_i Sum_j g V_j pushes
   !> particles apart where they crowd; the corrected form alone has no such
   !> restoring force, and a stretched Lagrangian arrangement then grows
-  !> particle-scale velocity noise (doc/numerics.md, "the blend")
+  !> particle-scale velocity noise (doc/studies/numerics.md, "the blend")
   real(wp), parameter :: HO_WEIGHT_MAX = 0.9_wp
   !> (E8) the weight of the anti-clustering term R (W_ij/W(dx))^n of the
   !> shifting (Sun et al. 2017: R = 0.2, n = 4)
@@ -615,14 +615,14 @@ contains
   !>   particles (lambda < LAMBDA_SURFACE).  On and near the free surface
   !>   (lambda_i <= LAMBDA_BLEND) the particle keeps the conservative (E4):
   !>   there the corrected form, with its truncated kernel and L_i far from
-  !>   I, was measured unstable (doc/numerics.md: the rotating square and
+  !>   I, was measured unstable (doc/studies/numerics.md: the rotating square and
   !>   the circle blow up by t = 0.5/omega, 0.8/A0, whether L_i is used or
   !>   not on the surface).  Between, the two forms are blended with the
   !>   weight w_i = (lambda_i - LAMBDA_BLEND)/(LAMBDA_NEAR - LAMBDA_BLEND)
   !>   of the corrected one: a stretched arrangement lowers lambda inside
   !>   the fluid too, and a hard switch there turned bulk particles to (E4)
   !>   one by one.  Inside, the weight is prm%ho_weight (0.9), not 1 (measured in
-  !>   doc/numerics.md).  Not conservative.
+  !>   doc/studies/numerics.md).  Not conservative.
   !> prm%divergence = DIV_RENORMALISED: the velocity divergence of (E1) is
   !>   Sum_j u_ji . (L_i g) V_j, exact for linear velocity fields (the
   !>   standard sum is not near the free surface, where it makes the density

@@ -1,6 +1,6 @@
 !> The neighbour list of the time stepper and when to rebuild it: its skin,
 !> its build on a grid every rank aligns alike, and the affine validity test
-!> (doc/numerics.md, "When the list is rebuilt").
+!> (doc/studies/numerics.md, "When the list is rebuilt").
 module list_manager
   use kinds, only: wp, i8
   use neighbours, only: neighbour_list_t, neighbour_build, neighbour_row, ROW_PAD

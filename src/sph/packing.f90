@@ -1,4 +1,4 @@
-!> Particle packing (doc/packing.md): relaxes the particles of a disc (2D)
+!> Particle packing (doc/theory/packing.md): relaxes the particles of a disc (2D)
 !> or ball (3D) of radius R, all of volume V = |Omega|/N, towards a uniform
 !> arrangement by descending the gradient of the kernel sum
 !>   (P1) Gamma_i = Sum_j W_ij V + E(|x_i|),
@@ -302,7 +302,7 @@ contains
     !> reflected back, and one on no plane is kept the plane's slab off each
     !> (its image twice that away), its move along that normal stopped.  No particle joins a
     !> plane here: one that did would lose half its weight, a deficit the
-    !> packing would draw in from afar (doc/symmetry.md, "The start-up dip").
+    !> packing would draw in from afar (doc/studies/symmetry.md, "The start-up dip").
     logical function off_planes(x, v) result(moved_back)
       real(wp), intent(inout) :: x(3), v(3)
       integer :: k, mask

@@ -1,6 +1,6 @@
 !> The time stepper: the particle state, the evaluation of a stage (halo
 !> refresh, pressure, the passes of the right-hand side), the time step
-!> (doc/theory.md T3), the step and the shifting (E8).  Its parts by
+!> (doc/theory/ T3), the step and the shifting (E8).  Its parts by
 !> concern: the neighbour list and when to rebuild it in list_manager, the
 !> domain decomposition in decomposition, the integrators (T1, T2) in
 !> integrators.

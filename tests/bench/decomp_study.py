@@ -7,7 +7,7 @@ on a small machine: the counts are what is measured, not the times) and
 reads the solver's end-of-run lines: halo copies per particle, partner ranks
 per rank (mean and largest), bytes and messages sent per rank and step, and
 the imbalance of the particle counts.  Prints a markdown table and writes it
-with the raw figures to runs/decomp/ (doc/parallel.md quotes it).
+with the raw figures to runs/decomp/ (doc/developer/parallel.md quotes it).
 
 usage: tests/bench/decomp_study.py [--ranks 2,4,8,16,32,64] [--cases circle2d,ellipsoid3d]
 """

@@ -1,10 +1,10 @@
 #!/usr/bin/python3
-"""The scaling model of doc/parallel.md: memory per rank, halo copies,
+"""The scaling model of doc/developer/parallel.md: memory per rank, halo copies,
 messages, bytes and time per step of the million-particle sphere's settings
 scaled to 10^7..10^9 particles on 10..10,000 ranks, from the counts that
 tests/bench/decomp_study.py measured (runs/decomp/decomp.json) and the
 constants below (each measured on the development machine, or a stated
-network).  Prints the markdown table of doc/parallel.md.
+network).  Prints the markdown table of doc/developer/parallel.md.
 
 usage: tests/bench/scaling_model.py [runs/decomp/decomp.json]
 """

@@ -1,5 +1,5 @@
 """The rotating square's boundary-integral reference (sphpost.bem, postproc/
-reference bem; doc/theory.md X7): the Cauchy integrals against harmonic
+reference bem; doc/theory/solutions.md X7): the Cauchy integrals against harmonic
 fields known in closed form, the centre pressure against exact values, a
 short run's conservation and its agreement with a finer one, and the
 shipped reference against a regeneration at low resolution."""

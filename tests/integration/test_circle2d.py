@@ -34,7 +34,7 @@ def test_short_run_accuracy(short_run):
     ts = read_timeseries(d / "timeseries.csv")
     last = {k: v[-1] for k, v in ts.items()}
     assert abs(last["time"] - 0.5) < 1e-12, last["time"]
-    # the exact solution recorded beside the SPH values (doc/theory.md X1)
+    # the exact solution recorded beside the SPH values (doc/theory/ X1)
     assert abs(last["semi_axis_1_exact"] - 0.627053) < 2e-6
     assert abs(last["p_centre_exact"] - 0.231943) < 2e-6
     assert last["rms_velocity_error"] < 0.0062, last["rms_velocity_error"]

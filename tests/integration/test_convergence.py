@@ -1,4 +1,4 @@
-"""The convergent recipe (input/circle2d_convergence.nml, doc/convergence.md
+"""The convergent recipe (input/circle2d_convergence.nml, doc/studies/convergence.md
 S1) converges when particles.n alone changes: three short levels, some
 ten seconds in all."""
 import math

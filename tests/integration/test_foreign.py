@@ -2,7 +2,7 @@
 PySPH files written here from a known exact field, with known perturbations,
 give back the errors put in; one of our runs written in every format gives
 its own report; bad files are refused with one line; the exact solutions'
-API (sphpost.exact) against doc/theory.md's reference values."""
+API (sphpost.exact) against doc/theory/'s reference values."""
 import json
 import math
 import subprocess
@@ -39,7 +39,7 @@ def report(*args):
 # ---------------------------------------------------------------------------
 
 def write_plain_csv(d, frames, ids=True, time_in="header"):
-    """The plain format as doc/postproc.md specifies it."""
+    """The plain format as doc/reference/postproc.md specifies it."""
     d.mkdir(parents=True, exist_ok=True)
     for k, f in enumerate(frames):
         dim = f["x"].shape[1]
@@ -534,7 +534,7 @@ def test_bad_files_are_refused_with_one_line(perturbed, tmp_path):
 
 
 # ---------------------------------------------------------------------------
-# The exact solutions as a library (doc/theory.md X1-X4, doc/numerics.md I2)
+# The exact solutions as a library (doc/theory/ X1-X4, doc/theory/solutions.md I2)
 # ---------------------------------------------------------------------------
 
 def test_exact_api_against_the_reference_values():

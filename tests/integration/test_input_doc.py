@@ -1,7 +1,7 @@
-"""doc/input.md's tables of variables are the program's own: `sph
+"""doc/reference/input.md's tables of variables are the program's own: `sph
 --input-tables` writes them from the rows that describe each variable
 (config's generic groups, each case's group), and the test asserts that
-every table of doc/input.md is exactly that output, so the documentation
+every table of doc/reference/input.md is exactly that output, so the documentation
 cannot drift from what the program reads, checks and prints.
 
 After changing a variable's row, rewrite the tables with
@@ -13,7 +13,7 @@ import sys
 
 from common import ROOT, run_sph
 
-DOC = ROOT / "doc" / "input.md"
+DOC = ROOT / "doc" / "reference" / "input.md"
 # the table that follows a group's heading: its header, rule and rows
 TABLE = re.compile(r"(^### `&(\w+)`[^\n]*\n\n)((?:\|[^\n]*\n)+)", re.M)
 
@@ -40,10 +40,10 @@ def test_doc_tables_are_the_programs():
     assert len(tables) >= 10 and sum(t.count("\n") - 2 for t in tables.values()) > 50, tables
     text = DOC.read_text()
     in_doc = {m.group(2): m.group(3) for m in TABLE.finditer(text)}
-    assert sorted(in_doc) == sorted(tables), "doc/input.md: a group without its section"
+    assert sorted(in_doc) == sorted(tables), "doc/reference/input.md: a group without its section"
     for group, table in tables.items():
         assert in_doc[group] == table, \
-            f"doc/input.md: the table of &{group} is not `sph --input-tables`' (make input-doc)"
+            f"doc/reference/input.md: the table of &{group} is not `sph --input-tables`' (make input-doc)"
 
 
 def test_help_and_tables_agree_on_defaults():

@@ -1,4 +1,4 @@
-"""Stopping and continuing (doc/parallel.md): a run stopped by SIGTERM (what a
+"""Stopping and continuing (doc/guide/restarts.md): a run stopped by SIGTERM (what a
 batch scheduler sends the ranks at the time limit), by SIGUSR1 sent to
 mpirun (which passes it on), or by run.wall_limit finishes its step, writes
 checkpoint.h5, prints the command that continues it and exits with code 75.
@@ -120,7 +120,7 @@ def test_sigterm_to_the_ranks(scratch, reference, np_):
 
 def test_sigusr1_to_mpirun(scratch, reference):
     # mpirun passes SIGUSR1 on to every rank (it answers SIGTERM by killing
-    # them a second later: doc/parallel.md)
+    # them a second later: doc/developer/parallel.md)
     d = scratch("ops_usr1") / "run"
     p = start(CASE + [f"output.dir={d}"], 2)
     lines = wait_for_steps(p)

@@ -117,7 +117,7 @@ def test_large_delta_runs_under_the_diffusive_step_limit(scratch):
 def test_probe_outside_the_fluid_is_warned_and_nan(scratch):
     # a probe with no particle in its support at the start (most likely a
     # slip in its coordinates): a warning at start-up and nan in the time
-    # series (doc/output.md); the centre probe of the input file has neither
+    # series (doc/reference/output.md); the centre probe of the input file has neither
     d = scratch("probe_out") / "run"
     p = run_sph(["input/circle2d.nml", "particles.n=400", "run.t_end=0.05",
                  "output.n_probes=2", "output.probes(1:3,2)=50,50,0", f"output.dir={d}"], np=2)

@@ -1,5 +1,5 @@
 """Parallel runs give the same particles as one rank.  The neighbour sums are
-taken in a canonical order (doc/numerics.md), so the agreement is bitwise,
+taken in a canonical order (doc/studies/numerics.md), so the agreement is bitwise,
 not just to round-off: the tests ask for exact equality, matched by id."""
 import re
 
@@ -300,7 +300,7 @@ def test_distributed_setup_memory(scratch):
     # each rank generates only its share of the particles: the largest
     # rank's peak on P ranks is about twice its share of the one-rank peak
     # plus the fixed footprint of a rank (a run of 2,000 particles), the
-    # bound of doc/parallel.md.  Measured at 300,000 particles on 8 ranks
+    # bound of doc/developer/parallel.md.  Measured at 300,000 particles on 8 ranks
     # (the curve decomposition): 96.7 MB against a bound of 100.1 (one rank
     # 312.8, fixed 21.9); when every rank built all of them and kept a share,
     # 142.4.  The assertion allows 15 % for another machine's allocator.

@@ -37,7 +37,7 @@ def script(name, *args, check=True):
 
 
 def module(*args, check=True):
-    """Runs `python3 -m sphpost ARGS...` as doc/postproc.md shows it: from the
+    """Runs `python3 -m sphpost ARGS...` as doc/reference/postproc.md shows it: from the
     repository root with PYTHONPATH=postproc."""
     p = subprocess.run([PY, "-m", "sphpost"] + [str(a) for a in args], cwd=ROOT,
                        env=dict(os.environ, PYTHONPATH="postproc"),
@@ -82,7 +82,7 @@ def tiny_run_ellipsoid3d(scratch):
 # ---------------------------------------------------------------------------
 
 def test_exact_solution_matches_reference_values():
-    # doc/theory.md X1 (2D, alpha = (-A0, A0)) and X2 (3D, rates (-1, -1, 2)):
+    # doc/theory/ X1 (2D, alpha = (-A0, A0)) and X2 (3D, rates (-1, -1, 2)):
     # the tables give 6 digits (X2: 5).
     a, _, p = sp.exact_ellipse([0.5, 1.0, 2.0])
     assert np.allclose(a[:, 0], [0.627053, 0.439461, 0.271814], atol=1e-6), a[:, 0]
@@ -93,7 +93,7 @@ def test_exact_solution_matches_reference_values():
 
 
 def test_compressibility_floor_closed_form_at_t0():
-    """I2 at t = 0 against P''(0) derived by hand from X1 (doc/numerics.md):
+    """I2 at t = 0 against P''(0) derived by hand from X1 (doc/theory/solutions.md):
     2D rates (-1, 1): P'' = -8 P(0) A0^2, coefficient 3/16 -> 1.5 % at c0 = 10;
     3D rates (-1, -1, 2): P'' = -10 P(0) A0^2, coefficient 7/60 -> 1.1667 %.
     sphpost computes P'' in closed form from the semi-axes and rates."""
@@ -115,7 +115,7 @@ def test_compressibility_floor_closed_form_at_t0():
 
 
 def test_case_info_applies_the_resolution_scaling():
-    # the run's c0 is physics.c0 (n/n_ref)^(c0_exponent/dim) (doc/convergence.md
+    # the run's c0 is physics.c0 (n/n_ref)^(c0_exponent/dim) (doc/studies/convergence.md
     # S1): the filter's cut-off and the I2 floor must use it, not input.nml's c0
     nml = {"run": {"case": "circle2d"}, "physics": {"c0": 12.5, "c0_exponent": 0.5},
            "particles": {"n": 20108, "n_ref": 1257}}
@@ -146,7 +146,7 @@ def test_filter_transfer_function_on_the_dct_grid():
 
 
 def test_filter_recovers_smooth_curve_from_acoustic_noise():
-    # Synthetic probe signal like circle2d's at c0 = 10 A0 R (doc/theory.md,
+    # Synthetic probe signal like circle2d's at c0 = 10 A0 R (doc/theory/,
     # Measurements the defaults rest on): the exact centre pressure P(t)
     # (P0 = 0.5) + an acoustic sine at the disc's lowest acoustic frequency
     # f_a = 2.405 c0/(2 pi R) = 3.83 A0 (X6),

@@ -5,7 +5,7 @@ the tensile instability control against fragmentation, the vortical
 patch's initial state and the time of its free-surface reconnection.
 
 Thresholds come from measurements at these resolutions, stated beside each;
-doc/numerics.md has the study at 10,000 and 40,000 particles."""
+doc/studies/numerics.md has the study at 10,000 and 40,000 particles."""
 import math
 import re
 import subprocess
@@ -55,7 +55,7 @@ def rotation_run(scratch):
 
 
 def test_rotation_pressure_frequency(rotation_run):
-    # doc/theory.md X6: the raw pressure at A oscillates at the lowest acoustic
+    # doc/theory/ X6: the raw pressure at A oscillates at the lowest acoustic
     # mode of the square, f0 = c0/(sqrt(2) L) = 4.95 omega at c0 = 7 omega L.
     # Measured over 0 <= t omega <= 1 (tensile_eps = 0.4): -1.6 % (1,600
     # particles), -1.3 % (2,500), -0.85 % (10,000), -0.72 % (40,000); later
@@ -171,7 +171,7 @@ def test_tensile_control_prevents_fragmentation(fragmentation_runs):
     #     largest holding 24 % of the particles at 3;
     #   eps = 0.4 (its default): no hole, one component, up to t omega = 4
     #     (also at 1,600 and 10,000 particles; at 40,000 holes open at the
-    #     roots of the arms from t omega = 2.8: doc/numerics.md);
+    #     roots of the arms from t omega = 2.8: doc/studies/numerics.md);
     #   eps = 0.2 (Monaghan's value): 4 holes at t omega = 3.
     runs = fragmentation_runs
     on, off = runs["on"], runs["off"]
@@ -189,7 +189,7 @@ def test_shifting_prevents_fragmentation_and_pressure_noise(fragmentation_runs):
     # hole and one component, with the standard scheme and with the
     # higher-order operators.  The tensile control biases the pressure (its
     # repulsion acts as an extra pressure: p_A oscillates about a mean 8 %
-    # below the incompressible one, doc/numerics.md) and excites the
+    # below the incompressible one, doc/studies/numerics.md) and excites the
     # acoustic mode: oscillation of p_A over 0 <= t omega <= 1, measured
     # 0.0094 rho omega^2 L^2 with the control, 0.0019 with shifting, 0.0013
     # with the higher-order operators and shifting.  Thresholds: 0.4 and
@@ -305,7 +305,7 @@ def test_vortical_reconnection_detected(vortical_run):
 
 
 def test_binned_sums_keep_squares_exactly_symmetric(scratch):
-    # doc/theory.md B1: with numerics.binned_sums every pair term is summed
+    # doc/theory/ B1: with numerics.binned_sums every pair term is summed
     # exactly whatever the order of the partners, the squares' lattice and
     # initial pressure are symmetric to the last bit and fluid_rhs fuses no
     # multiply-add, so a particle and its image under the symmetry get

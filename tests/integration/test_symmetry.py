@@ -1,4 +1,4 @@
-"""Mirror planes (particles.symmetry, doc/symmetry.md): the part of a
+"""Mirror planes (particles.symmetry, doc/studies/symmetry.md): the part of a
 symmetric body with the images of the particles near the planes.
 
 On a lattice the part and the whole body are the same discrete problem, so a
@@ -213,7 +213,7 @@ def test_packed_quadrant_is_uniform_to_the_centre(scratch):
     # dx/2 of a plane on it (half their weight lost) and the packing's capture
     # -1.3e-3 (at 80,000: -4.1e-3 against -3.6e-5 now and +5e-6 for the full
     # run), which made the quadrant's start-up dip 20 % smaller than the full
-    # run's (doc/symmetry.md, "The start-up dip"); bound 6e-4
+    # run's (doc/studies/symmetry.md, "The start-up dip"); bound 6e-4
     from scipy.spatial import cKDTree
     d = scratch("sym_uniform") / "run"
     p = run_sph(["input/circle2d.nml", "particles.n=20000", "particles.symmetry=xy",
