@@ -194,7 +194,7 @@ test: sph $(UNIT_EXE)
 	@BUILD=$(BUILD) PYTHON=$(PYTHON) NP_TEST="$(NP_TEST)" UNIT_EXE=$(UNIT_EXE) \
 	  UNIT_KIND=$(UNIT_KIND) UNIT_LABEL="$(UNIT_LABEL)" bash tests/run_tests.sh
 
-# The validation study behind doc/validation.md: runs circle2d at four
+# The validation study behind doc/validation/patches.md: runs circle2d at four
 # resolutions (the input's defaults, the standard operators and the
 # convergent recipe), ellipsoid3d at two and the square patches, then the errors,
 # convergence orders and figures of postproc/ (doc/reference/postproc.md).  Runs go to
@@ -211,13 +211,13 @@ validate-long: sph
 
 # The square patches alone against the Gerris reference (issue 35): each at
 # 10k, 40k and 90k particles with three schemes, compared with the finest
-# level of `make reference`; doc/validation_squares.md.  About two hours on
+# level of `make reference`; doc/validation/squares.md.  About two hours on
 # two cores; --reuse keeps finished runs.
 validate-squares: sph
 	$(PYTHON) postproc/validate --reuse --cases square_rotation square_vortical \
-	  --report validation_squares.md --np 1 $(VALIDATE_ARGS)
+	  --report squares.md --np 1 $(VALIDATE_ARGS)
 
-# The square patches' reference by Gerris (postproc/reference, doc/reference.md):
+# The square patches' reference by Gerris (postproc/reference, doc/validation/reference.md):
 # both cases at REFERENCE_LEVELS (Gerris's finest levels in a box of 8 L:
 # 16 to 128 cells per L, about an hour on two cores, most of it the finest),
 # levels already analysed reused; then each case's resolution study,
@@ -234,7 +234,7 @@ reference:
 	done
 
 # The rotating square by boundary integrals (postproc/reference bem,
-# doc/reference.md): BEM_RUNS (nodes:dt:corner exponent:filter order) into
+# doc/validation/reference.md): BEM_RUNS (nodes:dt:corner exponent:filter order) into
 # runs/reference/square_rotation/, runs already there reused; then the
 # study, and the finest run cut at its interval of convergence written to
 # postproc/sphpost/data/square_rotation_bem (the reference shipped).

@@ -1,6 +1,6 @@
 """bem: the rotating square by a boundary-integral method, the reference the
 paper compares with (its Figures 3 and 4), in the square's own units
-(L = omega = rho = 1; doc/theory/solutions.md X7, doc/reference.md).
+(L = omega = rho = 1; doc/theory/solutions.md X7, doc/validation/reference.md).
 
 The flow keeps its vorticity uniform (zeta = -2 omega: 2D, inviscid), so
 that u = u_R + grad phi with u_R = (omega y, -omega x) and phi harmonic in
@@ -24,7 +24,7 @@ stated in every output's header: the corners rounded to the superellipse
 |x|^n + |y|^n = (L/2)^n; a Fourier filter exp(-36 (k/k_max)^order) and
 Krasny's threshold on the nodes and phi after each step; the nodes
 redistributed every few steps by a density that follows the curvature and
-the arms' width (doc/reference.md).
+the arms' width (doc/validation/reference.md).
 """
 import math
 import os
@@ -38,7 +38,7 @@ ROT = np.exp(0.5j * math.pi * np.arange(SYM))     # the quarters' rotations
 
 
 class Params:
-    """The numerical settings of a boundary-integral run (doc/reference.md)."""
+    """The numerical settings of a boundary-integral run (doc/validation/reference.md)."""
 
     def __init__(self, nodes=1024, dt=0.0025, t_end=4.0, n_corner=24, filter_order=12,
                  filter_strength=36.0, krasny=1e-14, remap_every=5, kappa0=6.0,
@@ -288,7 +288,7 @@ def integrals(g, phiq, chi, omega=1.0):
 
 
 # ---------------------------------------------------------------------------
-# The nodes: the initial curve and the redistribution (doc/reference.md)
+# The nodes: the initial curve and the redistribution (doc/validation/reference.md)
 # ---------------------------------------------------------------------------
 
 def curvature(Z):
@@ -350,7 +350,7 @@ def graded(h, s, perimeter, slope):
 
 
 def node_density(Z, p):
-    """The node density along the whole curve (doc/reference.md): max(1 + |kappa|/kappa0,
+    """The node density along the whole curve (doc/validation/reference.md): max(1 + |kappa|/kappa0,
     gap_length/gap), smoothed (a redistribution's parameter must stay a
     smooth function of the node index)."""
     n = len(Z)
@@ -562,7 +562,7 @@ class BemSetup:
 
 
 def write_run(rec, setup, out_dir, p0_series):
-    """The run's files (doc/reference.md, "What a reference run writes"):
+    """The run's files (doc/validation/reference.md, "What a reference run writes"):
     pressure.csv, integrals.csv, tips.csv, interface_T.csv, setup.json and
     summary.json, each written completely or not at all; a '#' line first
     in each CSV states the method and its regularisation."""

@@ -180,7 +180,7 @@ def command(argv, prog="postproc/errors"):
     ap.add_argument("--csv", metavar="FILE", help="also write the table as CSV")
     ap.add_argument("--reference", metavar="DIR",
                     help="the squares: compare with this reference run of postproc/reference "
-                         "(doc/reference.md)")
+                         "(doc/validation/reference.md)")
     ap.add_argument("--json", action="store_true",
                     help="print the means and final values as JSON instead of the tables")
     ap.add_argument("--check-snapshots", action="store_true",
@@ -334,7 +334,7 @@ def command(argv, prog="postproc/errors"):
 
 def reference_comparison(case, t, p_probe, t_ke, ke, ref_dir, fc, tw):
     """The squares against their independent reference (postproc/reference,
-    doc/reference.md) in ref_dir: given the case (CaseInfo), the probe
+    doc/validation/reference.md) in ref_dir: given the case (CaseInfo), the probe
     pressure p_probe at times t and the kinetic energy ke at t_ke, the
     numbers of sphpost.reference.series_against; None without ref_dir."""
     if not ref_dir:

@@ -17,11 +17,11 @@ incompressible Euler equations of two phases on an adaptive quadtree: a VOF
 tracer T marks the dense phase (the square's fluid, density rho0), the light
 phase (density --ratio rho0: 1e-3 rotating, 1e-4 vortical) stands for the
 void; no gravity, no surface tension, no viscosity unless --viscosity or
---light-viscosity is given (doc/reference.md says what was tried and why
+--light-viscosity is given (doc/validation/reference.md says what was tried and why
 these choices).
 
 What `run` writes into DIR (default runs/reference/CASE/level_N), all plain
-CSV with a header line, in the case's own units (doc/reference.md):
+CSV with a header line, in the case's own units (doc/validation/reference.md):
   pressure.csv      t, p, p_far: the pressure at the case's probe (A = the
                     centre for the rotating square, (L/4, L/4) for the vortical
                     one) less the mean of the light phase's within three cells
@@ -80,7 +80,7 @@ CAVITY_DT = 0.0025
 RECONNECTION_AREA = 0.01
 # The shorter windows [0, w] over which the study also compares the probe
 # pressure (the rotating square's surface is Rayleigh-Taylor unstable, so
-# that its later evolution depends on the grid: doc/reference.md).
+# that its later evolution depends on the grid: doc/validation/reference.md).
 WINDOWS = {"square_rotation": (1.0, 1.5, 2.0), "square_vortical": (0.2,)}
 # The filtered pressure is compared away from the ends of the record, where
 # the filter's even extension bends it: over [TRIM, end - TRIM].
@@ -98,7 +98,7 @@ CHECKPOINTS_KEPT = 2
 SHORT_STEP = 0.5
 
 
-# The light phase's density over the dense phase's, by case (doc/reference.md,
+# The light phase's density over the dense phase's, by case (doc/validation/reference.md,
 # "The light phase delays the reconnection"): for the vortical square at 128
 # cells per L, 1e-4 gives 1e-5's reconnection to the scan and its probe
 # pressure within 0.018 % of |p0|, while 1e-3 delays the reconnection by
