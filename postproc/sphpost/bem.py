@@ -75,7 +75,9 @@ class Params:
                 f"{self.n_corner} = (L/2)^{self.n_corner}; filter exp(-{self.filter_strength:g}"
                 f" (k/k_max)^{self.filter_order}) and Krasny threshold {self.krasny:g} each "
                 f"step; nodes redistributed every {self.remap_every} steps by the density "
-                f"max(1 + |kappa|/{self.kappa0:g}, {self.gap_length:g} L/gap)")
+                f"max(1 + |kappa|/{self.kappa0:g}, {self.gap_length:g} L/gap), the spacing "
+                f"graded by {self.grading:g} per unit length; quadrature on a grid "
+                f"{UPSAMPLE} times finer")
 
 
 # ---------------------------------------------------------------------------
