@@ -240,8 +240,8 @@ reference:
 # postproc/sphpost/data/square_rotation_bem (the reference shipped).
 # Not part of `make test`.
 BEM_DIR := runs/reference/square_rotation
-BEM_RUNS ?= 1024:0.005:24:12 1536:0.005:24:12 2048:0.005:24:12 2048:0.0025:24:12 \
-            2048:0.005:32:12 2048:0.005:24:8
+BEM_RUNS ?= 1024:0.005:24:12 1536:0.005:24:12 2048:0.005:24:12 1024:0.0025:24:12 \
+            1024:0.005:32:12 1024:0.005:24:8
 reference-bem:
 	@for r in $(BEM_RUNS); do \
 	  set -- $$(echo $$r | tr ':' ' '); \

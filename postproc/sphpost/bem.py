@@ -582,7 +582,10 @@ def write_run(rec, setup, out_dir, p0_series):
     write_csv(os.path.join(out_dir, "tips.csv"), ("t", "radius", "curvature"),
               zip(t, rec.tip_r, rec.tip_k), comment=head, digits=12)
     for ts, Z in rec.surfaces.items():
-        Zc = np.append(Z, Z[:1])                    # closed
+        # the nodes and the midpoints of their interpolant: a polyline within
+        # a sixteenth of the nodes' chord error of the curve
+        Zc = upsample(Z, SURFACE_UPSAMPLE)
+        Zc = np.append(Zc, Zc[:1])                  # closed
         write_csv(os.path.join(out_dir, f"interface_{ts:g}.csv"), ("piece", "x", "y"),
                   ((0, float(z.real), float(z.imag)) for z in Zc), comment=head,
                   digits=10)
@@ -624,70 +627,75 @@ def pair_gap(a, b, tol=1e-4):
     surf = {}
     for t in sorted(set(a.interface_times()) & set(b.interface_times())):
         ca, cb = a.interface(t), b.interface(t)
-        surf[t] = (curve_distance(ca, cb, ds=2e-4)[1], tip_radius(ca) - tip_radius(cb))
+        # resampled at 2e-5 L: the point-to-point distance's own floor is half of it
+        surf[t] = (curve_distance(ca, cb, ds=2e-5)[1], tip_radius(ca) - tip_radius(cb))
     return {"end": float(end), "p_max": float(d.max()), "within": within, "surfaces": surf}
 
 
 def study(dirs, echo=print, tol=1e-4):
     """The boundary-integral reference's resolution study (markdown): each
-    run, then each run against the finest (the most nodes, then the
-    smallest step) with the regularisation's variants told apart."""
+    run; the runs with the finest run's step and regularisation against it
+    (the nodes' convergence, and the interval where the two finest agree);
+    each run that differs in its step, corners or filter against the run of
+    the same nodes without that difference (the regularisation's effect)."""
     from .reference import Reference
     refs = [Reference(d) for d in dirs]
     for r in refs:
         if r.setup.method != "bem":
             raise ValueError(f"'{r.path}' is not a boundary-integral reference")
+    reg = ("dt", "n_corner", "filter_order")
     key = lambda r: (r.setup.params.nodes, -r.setup.params.dt)     # noqa: E731
     base = max(refs, key=key)
     bp = base.setup.params
+    name = lambda r: os.path.basename(r.path.rstrip("/"))           # noqa: E731
     echo("| run | nodes | dt omega | corners n | filter order | p_A(0) against the series | "
          "largest area drift | largest KE drift | clean until t omega | steps | wall time |")
     echo("|---|---|---|---|---|---|---|---|---|---|---|")
     for r in sorted(refs, key=key):
         p, sm = r.setup.params, r.summary
-        echo(f"| {os.path.basename(r.path.rstrip('/'))} | {p.nodes} | {p.dt:g} | {p.n_corner} | "
-             f"{p.filter_order} | {100 * sm['p_probe_initial_error']:+.4f} % | "
-             f"{sm['area_drift_max']:.1e} | {sm['kinetic_energy_drift_max']:.1e} | "
-             f"{sm['clean_until']:.2f} | {sm['steps']} | {sm['wall_time_s']:.0f} s |")
-    echo(f"\nEach run against {os.path.basename(base.path.rstrip('/'))} ({bp.nodes} nodes, dt "
-         f"{bp.dt:g}): the largest |p_A difference| over their common interval in % of "
-         f"|p_A(0)|, the time up to which it stays within {100 * tol:g} %, and at each "
-         "surface time the surfaces' largest distance in L (the tips' radius difference):\n")
-    times = base.interface_times()
-    echo("| run | differs in | common end | p_A largest | within tolerance to | "
-         + " | ".join(f"surface {t:g}" for t in times) + " |")
-    echo("|---|---|---|---|---|" + "---|" * len(times))
-    out = []
+        echo(f"| {name(r)} | {p.nodes} | {p.dt:g} | {p.n_corner} | {p.filter_order} | "
+             f"{100 * sm['p_probe_initial_error']:+.4f} % | {sm['area_drift_max']:.1e} | "
+             f"{sm['kinetic_energy_drift_max']:.1e} | {sm['clean_until']:.2f} | {sm['steps']} | "
+             f"{sm['wall_time_s']:.0f} s |")
+    standard = lambda r: all(getattr(r.setup.params, k) == getattr(bp, k)   # noqa: E731
+                             for k in reg)
+    pairs = [(r, base) for r in sorted(refs, key=key) if standard(r) and r is not base]
     for r in sorted(refs, key=key):
-        if r is base:
-            continue
-        p = r.setup.params
-        what = [f"{name} {getattr(p, name):g}" for name in ("nodes", "dt", "n_corner",
-                                                           "filter_order")
-                if getattr(p, name) != getattr(bp, name)]
-        g = pair_gap(r, base, tol)
+        if not standard(r):
+            same = [q for q in refs if standard(q) and q.setup.params.nodes == r.setup.params.nodes]
+            if same:
+                pairs.append((r, same[0]))
+    times = base.interface_times()
+    echo(f"\nEach run against another: the largest |p_A difference| over their common interval "
+         f"in % of |p_A(0)|, the time up to which it stays within {100 * tol:g} %, and at each "
+         "surface time the surfaces' largest distance in L (the tips' radius difference):\n")
+    echo("| run | against | differs in | common end | p_A largest | within tolerance to | "
+         + " | ".join(f"surface {t:g}" for t in times) + " |")
+    echo("|---|---|---|---|---|---|" + "---|" * len(times))
+    out = []
+    for r, o in pairs:
+        p, op = r.setup.params, o.setup.params
+        what = [f"{k} {getattr(p, k):g} / {getattr(op, k):g}" for k in ("nodes",) + reg
+                if getattr(p, k) != getattr(op, k)]
+        g = pair_gap(r, o, tol)
         cells = [f"{g['surfaces'][t][0]:.1e} ({g['surfaces'][t][1]:+.1e})"
                  if t in g["surfaces"] else "" for t in times]
-        echo(f"| {os.path.basename(r.path.rstrip('/'))} | {', '.join(what)} | {g['end']:.2f} | "
+        echo(f"| {name(r)} | {name(o)} | {', '.join(what)} | {g['end']:.2f} | "
              f"{100 * g['p_max']:.1e} % | {g['within']:.2f} | " + " | ".join(cells) + " |")
-        out.append({"run": r.path, "differs": what, **{k: v for k, v in g.items()
-                                                        if k != "surfaces"},
+        out.append({"run": r.path, "against": o.path, "differs": what,
+                    **{k: v for k, v in g.items() if k != "surfaces"},
                     "surfaces": {f"{t:g}": v for t, v in g["surfaces"].items()}})
-    # the interval of convergence: the finest run against the next one in
-    # nodes with the same step and regularisation
-    same = [r for r in refs if r is not base and all(
-        getattr(r.setup.params, k) == getattr(bp, k) for k in ("dt", "n_corner", "filter_order"))]
     res = {"base": base.path, "pairs": out}
-    if same:
-        nxt = max(same, key=key)
-        g = next(o for o in out if o["run"] == nxt.path)
+    # the interval of convergence: the finest run against the next in nodes
+    nodes_pairs = [o for o in out if o["against"] == base.path and standard(Reference(o["run"]))]
+    if nodes_pairs:
+        g = max(nodes_pairs, key=lambda o: Reference(o["run"]).setup.params.nodes)
+        nxt = Reference(g["run"])
         bad = [float(t) for t, (d, _) in g["surfaces"].items() if d > SURFACE_TOL]
         until = min([g["within"]] + [t - 0.5 for t in bad])     # the surface before
-        # the surfaces compared are those at or before the end
         surf = [d for t, (d, _) in g["surfaces"].items() if float(t) <= until + 1e-9]
         res.update({"converged_until": float(until), "nodes": [nxt.setup.params.nodes, bp.nodes],
-                    "p_max": float(pair_gap(nxt, base, tol)["p_max"] if until >= g["end"]
-                                   else _p_max_until(nxt, base, until)),
+                    "p_max": float(_p_max_until(nxt, base, until)),
                     "surface_max": float(max(surf)) if surf else float("nan")})
         echo(f"\nConverged (p_A within {100 * tol:g} % of |p_A(0)| and the surfaces within "
              f"{SURFACE_TOL:g} L between {nxt.setup.params.nodes} and {bp.nodes} nodes) over "
@@ -697,6 +705,7 @@ def study(dirs, echo=print, tol=1e-4):
 
 
 SURFACE_TOL = 1e-4      # the surfaces' bar for convergence, in L
+SURFACE_UPSAMPLE = 2    # points written per node on the surfaces
 
 
 def _p_max_until(a, b, until):
