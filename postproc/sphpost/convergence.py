@@ -21,8 +21,12 @@ import argparse
 import json
 import sys
 
-from . import core as sp
 from . import foreign
+from .cli import main_guard
+from .exceptions import PostprocError
+from .figures import use_agg
+from .filtering import add_filter_options, filter_from_args
+from .measures import observed_orders, stretching_errors
 
 PROG = "convergence"
 
@@ -43,8 +47,8 @@ def collect(runs, fopts):
     """Per run: N, dx/R and the chosen errors (absolute values, fractions)."""
     rows = []
     for run in runs:
-        fc, tw, _ = sp.filter_from_args(run.case, fopts)
-        res = sp.stretching_errors(run, fc, tw)
+        fc, tw, _ = filter_from_args(run.case, fopts)
+        res = stretching_errors(run, fc, tw)
         e = {}
         for name, key, avg, _, _ in QUANTITIES:
             if key in res[avg]:
@@ -71,13 +75,13 @@ def command(argv, prog="postproc/convergence"):
                     help="compare the runs over [0, T] only, T in the flow's time (t A0): "
                          "runs that go further are cut at T, e.g. four full levels and "
                          "a fifth stopped at a checkpoint")
-    sp.add_filter_options(ap)
+    add_filter_options(ap)
     foreign.add_options(ap)
     args = ap.parse_args(argv)
     if len(args.run_dirs) < 2:
-        raise sp.PostprocError("give at least two run directories (resolutions)")
+        raise PostprocError("give at least two run directories (resolutions)")
     if args.until is not None and not args.until > 0:
-        raise sp.PostprocError(f"--until {args.until:g}: give a time above 0")
+        raise PostprocError(f"--until {args.until:g}: give a time above 0")
     runs = [foreign.open_run(d, args) for d in args.run_dirs]
     if args.until is not None:
         runs = [r.window(args.until) for r in runs]
@@ -98,7 +102,7 @@ def study(runs, fopts, output="convergence.png", title=None, echo=print):
     import numpy as np
     names = {r.case.name for r in runs}
     if len(names) > 1:
-        raise sp.PostprocError(f"the runs are of different cases: {', '.join(sorted(names))}")
+        raise PostprocError(f"the runs are of different cases: {', '.join(sorted(names))}")
     ends = {round(float(r.time[-1]), 9) for r in runs}
     if len(ends) > 1:
         print(f"warning: the runs end at different times {sorted(ends)}: their errors are not "
@@ -117,7 +121,7 @@ def study(runs, fopts, output="convergence.png", title=None, echo=print):
              + " ".join(f"{100 * r['errors'][q[0]]:8.4f}" for q in keys))
     orders = {}
     for q in keys:
-        orders[q[0]] = sp.observed_orders(h, [r["errors"][q[0]] for r in rows])
+        orders[q[0]] = observed_orders(h, [r["errors"][q[0]] for r in rows])
     echo("observed order of convergence in dx:")
     for i in range(len(rows) - 1):
         lab = f"{rows[i]['n']}->{rows[i + 1]['n']}"
@@ -127,7 +131,7 @@ def study(runs, fopts, output="convergence.png", title=None, echo=print):
         echo("filter bias on the exact curve (time mean, % of P(0)): " +
              ", ".join(f"{100 * r['filter_bias']:.3f}" for r in rows))
 
-    plt = sp.use_agg()
+    plt = use_agg()
     fig, ax = plt.subplots(figsize=(8, 7))
     markers = "osD^vxP"
     for k, q in enumerate(keys):
@@ -152,7 +156,7 @@ def study(runs, fopts, output="convergence.png", title=None, echo=print):
     ax.set_xticklabels([f"{d:.3g}\nN={r['n']:,}" for d, r in zip(h, rows)], fontsize=8)
     ax.xaxis.set_minor_formatter(NullFormatter())
     ax.set_title(title or f"{case.name}: convergence to {case.time_label} = "
-                 f"{rows[0]['t_end'] * case.rate:g}, c0 = {case.c0:g}")
+                 f"{rows[0]['t_end'] * case.rate:g}, {case.c0_label}")
     ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2)
     fig.tight_layout()
     fig.savefig(output, dpi=130)
@@ -165,5 +169,5 @@ def study(runs, fopts, output="convergence.png", title=None, echo=print):
 def main(argv=None, prog="postproc/convergence"):
     """The command line (argv defaults to sys.argv[1:]): returns the exit
     status; a PostprocError becomes a one-line message and status 2."""
-    return sp.main_guard(PROG, lambda a: command(a, prog),
+    return main_guard(PROG, lambda a: command(a, prog),
                          sys.argv[1:] if argv is None else argv)

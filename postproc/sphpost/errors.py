@@ -25,8 +25,13 @@ import json
 import math
 import sys
 
-from . import core as sp
 from . import exact, foreign
+from .cases import PROBES
+from .cli import main_guard
+from .exceptions import PostprocError
+from .filtering import add_filter_options, filter_from_args, lowpass
+from .measures import DIP_WINDOW, row_indices, stretching_errors, windowed_errors
+from .particles import free_surface_outline, outline_measures
 
 PROG = "errors"
 
@@ -154,11 +159,11 @@ def window_edges(text, run):
     try:
         inner = [float(v) for v in text.split(",")]
     except ValueError:
-        raise sp.PostprocError(f"--windows {text}: not a comma-separated list of times")
+        raise PostprocError(f"--windows {text}: not a comma-separated list of times")
     t0, t1 = float(run.time[0]), float(run.time[-1])
     edges = [t0] + [v / c.rate for v in inner] + [t1]
     if any(b <= a for a, b in zip(edges[:-1], edges[1:])):
-        raise sp.PostprocError(f"--windows {text}: the times must increase strictly between "
+        raise PostprocError(f"--windows {text}: the times must increase strictly between "
                                f"{t0 * c.rate:g} and t_end = {t1 * c.rate:g} "
                                f"({c.time_label})")
     return edges
@@ -198,7 +203,7 @@ def command(argv, prog="postproc/errors"):
                     help="also the time means over the windows [0, T1], [T1, T2], ..., "
                          "[Tk, t_end] (times in the table's unit, t A0): where in the run an "
                          "error is made")
-    sp.add_filter_options(ap)
+    add_filter_options(ap)
     foreign.add_options(ap)
     args = ap.parse_args(argv)
 
@@ -207,17 +212,17 @@ def command(argv, prog="postproc/errors"):
     c = run.case
     if isinstance(run, foreign.ForeignRun) and (args.check_snapshots or args.velocity_split
                                                 or args.plane_bands):
-        raise sp.PostprocError("--check-snapshots, --velocity-split and --plane-bands need an "
+        raise PostprocError("--check-snapshots, --velocity-split and --plane-bands need an "
                                f"sph run's snapshots; '{args.run_dir}' is another code's output")
-    fc, tw, how = sp.filter_from_args(c, args)
+    fc, tw, how = filter_from_args(c, args)
     if c.square:
         if args.windows:
-            raise sp.PostprocError("--windows is for the stretching cases (circle2d, "
+            raise PostprocError("--windows is for the stretching cases (circle2d, "
                                    f"ellipsoid3d), not {c.name}")
         return square_report(run, fc, tw, how, args)
     edges = window_edges(args.windows, run) if args.windows else None
-    res = sp.stretching_errors(run, fc, tw)
-    windows = sp.windowed_errors(res, edges) if edges is not None else None
+    res = stretching_errors(run, fc, tw)
+    windows = windowed_errors(res, edges) if edges is not None else None
     if args.json:
         js = {"run": run.path, "case": c.name, "n": run.n_particles,
               "dx": run.dx, "t_end": float(run.time[-1]), "f_cut": fc,
@@ -231,11 +236,14 @@ def command(argv, prog="postproc/errors"):
 
     dim = c.dim
     ser = res["series"]
-    rows = sp.row_indices(run, args.times, args.count)
+    rows = row_indices(run, args.times, args.count)
     for n in c.notes:
         print(f"note: {n}")
     print(f"run {run.path}: {c.name}, {run.n_particles} particles, dx/R {run.dx / c.length:.4g}, "
-          f"c0 {c.c0:g}, t_end {run.time[-1]:g}, {len(run.time)} time-series rows")
+          f"c0 {c.c0:g} ({c.c0_label}), t_end {run.time[-1]:g} ({c.time_label} = "
+          f"{run.time[-1] * c.rate:g}), {len(run.time)} time-series rows")
+    if c.units:
+        print(f"units: {c.units}")
     if res["probe"] is None:
         print("no pressure probe at the centre: pressure errors left out")
     else:
@@ -287,10 +295,10 @@ def command(argv, prog="postproc/errors"):
               f"leaves out")
         print(f"start-up dip: the raw centre pressure falls at most "
               f"{100 * res['dip']:.4f} % of P(0) below P(t) for {c.time_label} < "
-              f"{sp.DIP_WINDOW:g}")
-    print(f"compressibility floor (I2, doc/theory/solutions.md): the weakly compressible slow "
+              f"{DIP_WINDOW:g}")
+    print(f"compressibility floor (I2, doc/studies/numerics.md): the weakly compressible slow "
           f"solution's own centre pressure departs from P(t) by {100 * res['mean']['slow']:.4f} "
-          f"% of P(0) on average at c0 = {c.c0:g}; the filtered error does not converge below "
+          f"% of P(0) on average at {c.c0_label}; the filtered error does not converge below "
           f"it (it falls as 1/c0^2)")
     if args.check_snapshots:
         if not run.snapshots:
@@ -353,7 +361,7 @@ def square_report(run, fc, tw, how, args):
     import numpy as np
     c = run.case
     t = run.time
-    point = np.array(foreign.PROBES[c.name]) * c.length
+    point = np.array(PROBES[c.name]) * c.length
     pexact = exact.square_rotation_pressure if c.name == "square_rotation" \
         else exact.square_vortical_pressure
     scale = c.rate if c.name == "square_rotation" else c.rate * c.length
@@ -371,7 +379,7 @@ def square_report(run, fc, tw, how, args):
            "ke_change": float(ke[-1] / ke[0] - 1), "ke0_error": float(ke[0] / ke0_exact - 1)}
     ok = np.isfinite(pp)
     if ok.sum() >= 4:
-        tu, pu, pf = sp.lowpass(tp[ok], pp[ok], fc, tw)
+        tu, pu, pf = lowpass(tp[ok], pp[ok], fc, tw)
         out["p_filt_end"] = float(pf[-1])
         out["p_acoustic_rms"] = float(np.sqrt(np.mean((pu - pf)**2)) / c.p_unit)
     outlines = getattr(run, "outlines", None)
@@ -380,10 +388,10 @@ def square_report(run, fc, tw, how, args):
         for i in (0, -1):
             s = run.snapshot(i)
             vol = s["mass"] / s["density"]
-            outlines[s["attrs"]["time"]] = foreign.free_surface_outline(
+            outlines[s["attrs"]["time"]] = free_surface_outline(
                 s["position"][:, :2], vol, run.dx)
     out["outline"] = {f"{tt:g}": dict(zip(("area", "perimeter", "curves"),
-                                          foreign.outline_measures(lines)))
+                                          outline_measures(lines)))
                       for tt, lines in (outlines or {}).items()}
     out["reference"] = reference_comparison(c, tp, pp, t, ke, args.reference, fc, tw)
     if args.json:
@@ -392,8 +400,10 @@ def square_report(run, fc, tw, how, args):
     for n in c.notes:
         print(f"note: {n}")
     unit = c.p_unit_label
-    print(f"run {run.path}: {c.name}, {run.n_particles} particles, c0 {c.c0:g}, t_end "
-          f"{t[-1]:g} ({c.time_label} = {t[-1] * c.rate:g}), {len(t)} rows")
+    print(f"run {run.path}: {c.name}, {run.n_particles} particles, c0 {c.c0:g} ({c.c0_label}), "
+          f"t_end {t[-1]:g} ({c.time_label} = {t[-1] * c.rate:g}), {len(t)} rows")
+    if c.units:
+        print(f"units: {c.units}")
     print(f"probe at ({point[0]:g}, {point[1]:g}): p(0) {pp[0]:.6g} against the sine series' "
           f"{p0_exact:.6g} (X3/X4): {out['p0_error']:+.3e} {unit}; at the end {pp[-1]:.6g}")
     if "p_filt_end" in out:
@@ -424,5 +434,5 @@ def square_report(run, fc, tw, how, args):
 def main(argv=None, prog="postproc/errors"):
     """The command line (argv defaults to sys.argv[1:]): returns the exit
     status; a PostprocError becomes a one-line message and status 2."""
-    return sp.main_guard(PROG, lambda a: command(a, prog),
+    return main_guard(PROG, lambda a: command(a, prog),
                          sys.argv[1:] if argv is None else argv)

@@ -14,22 +14,89 @@ reading its files (doc/reference/postproc.md, "The exact solutions as a library"
 Lengths, rates and densities are whatever units the caller uses (R, A0,
 rho; L, omega, V0): every formula is dimensionally consistent.  Each function
 carries the label of its equation in doc/theory/ (X1-X4) or
-doc/theory/solutions.md (I2).  The ODE of X1 and its derivatives live in
-sphpost.core (exact_ellipse, centre_pressure_derivatives), which the error
-tools use too; this module gives them one documented face.
+doc/studies/numerics.md (I2).  exact_ellipse integrates the ODE of X1 and
+centre_pressure_derivatives gives P', P''; the error measures use them
+directly.
 """
 import collections
 import math
 
 import numpy as np
 
-from .core import centre_pressure_derivatives, compressibility_floor, exact_ellipse
 
 __all__ = ["Stretching", "stretching", "stretching_velocity", "stretching_pressure",
            "lagrangian_map", "stretching_kinetic_energy", "compressibility_floor",
            "square_pressure_series", "square_rotation_pressure", "square_vortical_pressure",
            "square_rotation_kinetic_energy", "square_vortical_kinetic_energy",
            "square_vortical_velocity"]
+
+def exact_ellipse(t, rates=(-1.0, 1.0), radius=1.0, rho=1.0):
+    """Exact semi-axes a_k(t) (shape (len(t), dim)), rates alpha_k(t) and
+    centre pressure P(t) of the stretching patch with alpha_k(0) = rates:
+    a_k' = alpha_k a_k, alpha_k' = 2P/(rho a_k^2) - alpha_k^2,
+    P/rho = Sum alpha_k^2 / (2 Sum 1/a_k^2).  Integrated by scipy's DOP853 to
+    1e-12 relative."""
+    from scipy.integrate import solve_ivp
+    t = np.atleast_1d(np.asarray(t, dtype=float))
+    rates = np.asarray(rates, dtype=float)
+    d = len(rates)
+
+    def rhs(_, s):
+        a, al = s[:d], s[d:]
+        p = np.sum(al**2) / (2 * np.sum(1 / a**2))
+        return np.concatenate([al * a, 2 * p / a**2 - al**2])
+
+    tt = np.unique(np.concatenate([[0.0], t]))
+    if tt[-1] == 0:             # t = 0 alone: the initial state (no interval to integrate)
+        tt = np.array([0.0, 1e-300])
+    sol = solve_ivp(rhs, (0.0, tt[-1]), np.concatenate([np.full(d, radius), rates]),
+                    t_eval=tt, rtol=1e-12, atol=1e-14, method="DOP853")
+    idx = np.searchsorted(tt, t)
+    a = sol.y[:d, idx].T
+    al = sol.y[d:, idx].T
+    p = rho * np.sum(al**2, axis=1) / (2 * np.sum(1 / a**2, axis=1))
+    return a, al, p
+
+
+def centre_pressure_derivatives(a, al, rho=1.0):
+    """P(t), P'(t) and P''(t) of X1 from the semi-axes a and rates al
+    (arrays (n, dim)): with P = rho N/D, N = Sum al^2, D = 2 Sum 1/a^2,
+    a' = al a, al' = 2P/(rho a^2) - al^2 and
+    al'' = 2P'/(rho a^2) - 4 P al/(rho a^2) - 2 al al',
+    P' = rho (N' D - N D')/D^2,
+    P'' = rho ((N'' D - N D'')/D^2 - 2 D' (N' D - N D')/D^3)."""
+    a, al = np.atleast_2d(a), np.atleast_2d(al)
+    n, d = np.sum(al**2, 1), 2 * np.sum(1 / a**2, 1)
+    p = rho * n / d
+    al1 = 2 * p[:, None] / (rho * a**2) - al**2
+    n1, d1 = 2 * np.sum(al * al1, 1), -4 * np.sum(al / a**2, 1)
+    p1 = rho * (n1 * d - n * d1) / d**2
+    al2 = (2 * p1[:, None] - 4 * p[:, None] * al) / (rho * a**2) - 2 * al * al1
+    n2 = 2 * np.sum(al1**2 + al * al2, 1)
+    d2 = -4 * np.sum((al1 - 2 * al**2) / a**2, 1)
+    p2 = rho * ((n2 * d - n * d2) / d**2 - 2 * d1 * (n1 * d - n * d1) / d**3)
+    return p, p1, p2
+
+
+def centre_pressure_accel(a, al, rho=1.0):
+    """P''(t) of X1 from the semi-axes a and rates al (centre_pressure_derivatives)."""
+    return centre_pressure_derivatives(a, al, rho)[2]
+
+
+def compressibility_floor(t, rates=(-1.0, 1.0), radius=1.0, rho=1.0, c0=10.0):
+    """(I2, doc/studies/numerics.md) The weakly compressible model's own departure
+    of the centre pressure of the stretching patch (X1, initial rates
+    `rates`) from the incompressible P(t), over P(0):
+    delta p(0, t) = -P''(t) R^2 (dim + 4) / (4 dim (dim + 2) c0^2).  It
+    falls as 1/c0^2 and is slow, so the low-pass filter keeps it: a floor
+    of the filtered error at any resolution."""
+    d = len(rates)
+    t = np.atleast_1d(np.asarray(t, dtype=float))
+    a, al, _ = exact_ellipse(t, rates=rates, radius=radius, rho=rho)
+    p0 = rho * np.sum(np.square(rates)) * radius**2 / (2 * d)
+    p2 = centre_pressure_accel(a, al, rho)
+    return -p2 * radius**2 * (d + 4) / (4 * d * (d + 2) * c0**2) / p0
+
 
 Stretching = collections.namedtuple("Stretching", "t a alpha P dPdt d2Pdt2")
 Stretching.__doc__ = """The stretching patch at the times t (X1): semi-axes a and
@@ -43,7 +110,7 @@ def stretching(t, rates=(-1.0, 1.0), radius=1.0, rho=1.0):
     a_k' = alpha_k a_k, alpha_k' = 2P/(rho a_k^2) - alpha_k^2,
     P/rho = Sum alpha_k^2 / (2 Sum 1/a_k^2), a_k(0) = R.  circle2d is
     rates (-A0, A0); ellipsoid3d A0 (-1, -1, 2).  Integrated by DOP853 to
-    1e-12 relative (core.exact_ellipse); P' and P'' in closed form."""
+    1e-12 relative (exact_ellipse); P' and P'' in closed form."""
     rates = tuple(float(r) for r in rates)
     if abs(sum(rates)) > 1e-12 * max(abs(r) for r in rates):
         raise ValueError(f"the rates {rates} must sum to 0 (an incompressible flow)")

@@ -22,8 +22,10 @@ import argparse
 import os
 import sys
 
-from . import core as sp
 from . import foreign
+from .cli import main_guard
+from .exceptions import PostprocError
+from .filtering import add_filter_options, filter_from_args, lowpass
 
 PROG = "filter"
 
@@ -40,7 +42,7 @@ def command(argv, prog="postproc/filter"):
                          "(default RUN_DIR/probes_filtered.csv)")
     ap.add_argument("--dt", type=float, metavar="DT",
                     help="step of the uniform grid (default: the median time step of the run)")
-    sp.add_filter_options(ap)
+    add_filter_options(ap)
     foreign.add_options(ap)
     args = ap.parse_args(argv)
     filter_probes(foreign.open_run(args.run_dir, args), args, args.output, args.dt)
@@ -59,9 +61,9 @@ def filter_probes(run, fopts, output=None, dt=None, echo=print):
     probes = sorted((k for k in run.ts if k.startswith("p_probe_")),
                     key=lambda s: int(s.rsplit("_", 1)[1]))
     if not probes:
-        raise sp.PostprocError(f"{run.path}/timeseries.csv has no probe columns "
+        raise PostprocError(f"{run.path}/timeseries.csv has no probe columns "
                                "(output.n_probes = 0?)")
-    fc, tw, how = sp.filter_from_args(c, fopts)
+    fc, tw, how = filter_from_args(c, fopts)
     unit = c.time_label.replace("t ", "")
     for n in c.notes:
         echo(f"note: {n}")
@@ -77,7 +79,7 @@ def filter_probes(run, fopts, output=None, dt=None, echo=print):
         if np.sum(np.isfinite(y)) < 4:
             echo(f"{name}: fewer than 4 valid samples (no particle near the probe): skipped")
             continue
-        tu_k, yu, yf = sp.lowpass(t, y, fc, tw, dt=dt if tu is None else tu[1] - tu[0])
+        tu_k, yu, yf = lowpass(t, y, fc, tw, dt=dt if tu is None else tu[1] - tu[0])
         if tu is None:
             tu = tu_k
         # a probe with NaNs at the ends covers a shorter span: put it on the common grid
@@ -98,7 +100,7 @@ def filter_probes(run, fopts, output=None, dt=None, echo=print):
              f"the lowest acoustic frequency"
              + (f"; {n_bad} NaN samples dropped" if n_bad else ""))
     if tu is None:
-        raise sp.PostprocError("no probe had enough valid samples to filter")
+        raise PostprocError("no probe had enough valid samples to filter")
     if "p_centre_exact" in run.ts:
         cols["p_centre_exact"] = np.interp(tu, run.time, run.ts["p_centre_exact"])
     out = output or os.path.join(run.path, "probes_filtered.csv")
@@ -114,5 +116,5 @@ def filter_probes(run, fopts, output=None, dt=None, echo=print):
 def main(argv=None, prog="postproc/filter"):
     """The command line (argv defaults to sys.argv[1:]): returns the exit
     status; a PostprocError becomes a one-line message and status 2."""
-    return sp.main_guard(PROG, lambda a: command(a, prog),
+    return main_guard(PROG, lambda a: command(a, prog),
                          sys.argv[1:] if argv is None else argv)

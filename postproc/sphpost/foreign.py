@@ -20,20 +20,21 @@ exact solution comes from sphpost.exact in the units the options give
 (--length, --rate, --v0, --rho), and any file that does not fit is refused
 with one message naming the file, the field and what was expected.
 """
-import glob
 import math
 import os
 import re
-import xml.etree.ElementTree as ET
 
 import numpy as np
 
 from . import exact
-from .core import PostprocError, Run, case_info, patch_volume, read_timeseries
-
-FORMATS = ("sph", "plain", "vtk", "pysph")
-EXTENSIONS = {"plain": (".csv", ".npz"), "vtk": (".vtk", ".vtu", ".vtp"),
-              "pysph": (".npz", ".hdf5", ".h5")}
+from .cases import CASES, PROBES, case_info, patch_volume
+from .exceptions import PostprocError
+from .particles import fitted_semi_axes, free_surface_outline, pressure_at
+from .readers.plain import read_plain_csv, read_plain_npz
+from .readers.pysph import read_pysph
+from .readers.series import FORMATS, find_files
+from .readers.sph import Run, read_timeseries
+from .readers.vtk import pvd_times, read_vtk
 
 # The scalar fields of a particle, by their names in the plain format; a
 # vector field ('position', 'velocity') stands for its three components.
@@ -61,8 +62,7 @@ UINT_MAX = 2**32 - 1            # PySPH's gid of a particle never given one
 
 # the probe of each case (the shipped inputs'): the centre, A for the
 # rotating square, (L/4, L/4) for the vortical one, in units of R or L
-PROBES = {"circle2d": (0.0, 0.0), "ellipsoid3d": (0.0, 0.0, 0.0),
-          "square_rotation": (0.0, 0.0), "square_vortical": (0.25, 0.25)}
+
 UNIT_TOLERANCE = 30.0           # a scale this far off is a wrong unit, not a bad run
 
 
@@ -70,8 +70,7 @@ def add_options(ap):
     """The options that describe a foreign run (doc/reference/postproc.md); our own
     run directories need none of them."""
     g = ap.add_argument_group("other codes' runs (doc/reference/postproc.md, 'Other codes' runs')")
-    g.add_argument("--case", choices=("circle2d", "ellipsoid3d", "square_rotation",
-                                      "square_vortical"),
+    g.add_argument("--case", choices=tuple(CASES),
                    help="the prototype problem of a run that is not ours (required for it)")
     g.add_argument("--format", choices=FORMATS,
                    help="sph (our run directory), plain, vtk or pysph; default: from the "
@@ -162,270 +161,11 @@ def _numbers(text, what, n=None):
 
 
 # ---------------------------------------------------------------------------
-# The files of a run
-# ---------------------------------------------------------------------------
-
-def _natural_key(path):
-    """Sort key: the file name with its numbers compared as numbers."""
-    return [float(s) if re.fullmatch(r"\d+(\.\d+)?", s) else s
-            for s in re.split(r"(\d+(?:\.\d+)?)", os.path.basename(path))]
 
 
-def _series_prefix(path):
-    """NAME_0012.vtk -> 'NAME_' (the part before the output number)."""
-    base = os.path.basename(path)
-    return re.sub(r"[0-9.eE+-]*\d+(\.\w+)$", "", base) + os.path.splitext(base)[1]
-
-
-def find_files(path, fmt=None, pattern=None):
-    """The output files of a foreign run and its format: a directory (all
-    files of one format and one series name, or those matching pattern), a
-    glob pattern, or a single file."""
-    if any(ch in path for ch in "*?["):
-        files = glob.glob(path)
-        where = path
-    elif os.path.isdir(path):
-        if pattern:
-            files = glob.glob(os.path.join(path, pattern))
-        else:
-            exts = EXTENSIONS.get(fmt) or sum(EXTENSIONS.values(), ())
-            files = [f for f in glob.glob(os.path.join(path, "*"))
-                     if f.lower().endswith(exts) and os.path.isfile(f)]
-        where = path
-    elif os.path.isfile(path):
-        files, where = [path], path
-    else:
-        raise PostprocError(f"run '{path}' does not exist")
-    if not files:
-        raise PostprocError(f"'{where}' has no output files" + (f" matching '{pattern}'"
-                            if pattern else " (.csv, .npz, .vtk, .vtu, .vtp, .hdf5; "
-                            "our runs have timeseries.csv)"))
-    files = sorted(files, key=_natural_key)
-    groups = sorted({_series_prefix(f) for f in files})
-    if len(groups) > 1:
-        raise PostprocError(f"'{where}' holds several series of files ("
-                            + ", ".join(g.replace(".", "*.", 1) if "*" not in g else g
-                                        for g in groups[:6])
-                            + "): choose one with --pattern, e.g. --pattern 'PartFluid_*.vtk'")
-    if fmt is None:
-        fmt = _detect_format(files[0])
-    return files, fmt
-
-
-def _detect_format(path):
-    low = path.lower()
-    if low.endswith((".vtk", ".vtu", ".vtp")):
-        return "vtk"
-    if low.endswith(".csv"):
-        return "plain"
-    if low.endswith(".npz"):
-        try:
-            with np.load(path, allow_pickle=False) as z:
-                return "pysph" if "particles" in z.files or "arrays" in z.files else "plain"
-        except Exception as e:      # noqa: BLE001 (any unreadable file)
-            raise PostprocError(f"{path}: not a readable .npz file ({e})")
-    if low.endswith((".hdf5", ".h5")):
-        return "pysph"
-    raise PostprocError(f"{path}: cannot tell the format from the name; give --format")
-
-
-# ---------------------------------------------------------------------------
-# Readers: each returns ({name: array}, time or None, point coordinates or None)
-# ---------------------------------------------------------------------------
-
-TIME_LINE = re.compile(r"#\s*(?:time|t)\s*[=:]\s*(\S+)", re.I)
 TIME_IN_NAME = re.compile(r"(?:^|[_.\-])t=?([0-9]+(?:\.[0-9]*)?(?:[eE][-+]?[0-9]+)?)(?=[_.\-]|$)")
 
 
-def read_plain_csv(path):
-    """The plain format's CSV: '#' lines (one may be '# time = T'), a header
-    of column names, then one row per particle."""
-    with open(path, newline="") as f:
-        lines = f.readlines()
-    time, head = None, None
-    for k, line in enumerate(lines):
-        s = line.strip()
-        if s.startswith("#"):
-            m = TIME_LINE.match(s)
-            if m and not _is_float(m.group(1)):
-                raise PostprocError(f"{path} line {k + 1}: time '{m.group(1)}' is not a number")
-            time = float(m.group(1)) if m else time
-        elif s:
-            head = k
-            break
-    if head is None:
-        raise PostprocError(f"{path}: no particles (expected a header line id,x,y,... "
-                            "and one row per particle)")
-    header = [h.strip() for h in lines[head].split(",")]
-    try:                            # numpy's parser: fast
-        arr = np.loadtxt(lines[head + 1:], delimiter=",", comments="#", ndmin=2)
-    except ValueError:
-        arr = None
-    if arr is None or arr.shape[1] != len(header):
-        # what numpy refused, line by line, for a message naming the line
-        # and the column
-        for lineno, line in enumerate(lines[head + 1:], head + 2):
-            s = line.strip()
-            if not s or s.startswith("#"):
-                continue
-            vals = s.split(",")
-            if len(vals) != len(header):
-                raise PostprocError(f"{path} line {lineno}: {len(vals)} values, expected "
-                                    f"{len(header)} (the columns {','.join(header)})")
-            for h, v in zip(header, vals):
-                if not _is_float(v):
-                    raise PostprocError(f"{path} line {lineno}, column '{h}': '{v.strip()}' "
-                                        "is not a number")
-    if arr is None or len(arr) == 0:
-        raise PostprocError(f"{path}: no particles (expected one row per particle after the "
-                            "header)")
-    return {h: arr[:, k] for k, h in enumerate(header)}, time, None
-
-
-def _is_float(v):
-    try:
-        float(v)
-        return True
-    except ValueError:
-        return False
-
-
-def read_plain_npz(path):
-    """The plain format's .npz: one 1-D array per column, 'time' a scalar."""
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            data = {k: z[k] for k in z.files}
-    except Exception as e:      # noqa: BLE001
-        raise PostprocError(f"{path}: not a readable .npz file of plain arrays ({e})")
-    time = data.pop("time", None)
-    return data, (None if time is None else float(np.asarray(time).ravel()[0])), None
-
-
-def read_vtk(path):
-    """A VTK file by VTK's own readers: legacy .vtk (polydata or
-    unstructured grid, ASCII or binary), XML .vtu and .vtp.  The time from
-    the field data TimeValue (ParaView's convention) or TIME."""
-    try:
-        import vtk
-        from vtk.util.numpy_support import vtk_to_numpy
-    except ImportError:
-        raise PostprocError("reading VTK files needs Debian's python3-vtk9 (setup.sh "
-                            "installs it); run with /usr/bin/python3")
-    vtk.vtkObject.GlobalWarningDisplayOff()     # a bad file is our message, not VTK's
-    low = path.lower()
-    if low.endswith(".vtu"):
-        reader = vtk.vtkXMLUnstructuredGridReader()
-    elif low.endswith(".vtp"):
-        reader = vtk.vtkXMLPolyDataReader()
-    else:
-        reader = vtk.vtkGenericDataObjectReader()
-    reader.SetFileName(path)
-    if hasattr(reader, "ReadAllScalarsOn"):
-        reader.ReadAllScalarsOn()
-        reader.ReadAllVectorsOn()
-        reader.ReadAllFieldsOn()
-    reader.Update()
-    ds = reader.GetOutput()
-    pts = ds.GetPoints() if ds is not None and hasattr(ds, "GetPoints") else None
-    if pts is None or ds.GetNumberOfPoints() == 0:
-        raise PostprocError(f"{path}: not a readable VTK file with points (expected legacy "
-                            "polydata or unstructured grid, .vtu or .vtp)")
-    data = {}
-    pd = ds.GetPointData()
-    for k in range(pd.GetNumberOfArrays()):
-        a = pd.GetAbstractArray(k)
-        if a is not None and a.GetName() and hasattr(a, "GetNumberOfComponents"):
-            try:
-                data[a.GetName()] = vtk_to_numpy(a)
-            except Exception:   # noqa: BLE001 (a string array: not a field of ours)
-                pass
-    time = None
-    fd = ds.GetFieldData()
-    for name in ("TimeValue", "TIME", "Time", "time"):
-        a = fd.GetArray(name) if fd is not None else None
-        if a is not None and a.GetNumberOfTuples() > 0:
-            time = float(a.GetTuple1(0))
-            break
-    return data, time, vtk_to_numpy(pts.GetData()).astype(float)
-
-
-def read_pysph(path, array=None):
-    """PySPH's dump (pysph.solver.utils.dump): .npz with 'version' (1 or 2),
-    'solver_data' and 'particles' (version 2: {array: {'arrays': {prop:
-    data}, ...}}) or 'arrays' (version 1), pickled dicts; or .hdf5 with
-    particles/ARRAY/arrays/PROP datasets (attribute 'stored') and the
-    attributes of solver_data (t, dt, count)."""
-    if path.lower().endswith(".npz"):
-        try:
-            with np.load(path, allow_pickle=True, encoding="bytes") as z:
-                files = z.files
-                if "version" not in files or "solver_data" not in files:
-                    raise PostprocError(f"{path}: not a PySPH .npz (no 'version' or "
-                                        "'solver_data' entry)")
-                version = int(z["version"])
-                solver = _unbox(z["solver_data"])
-                if version == 2 and "particles" in files:
-                    arrays = {n: info["arrays"] for n, info in _unbox(z["particles"]).items()}
-                elif version == 1 and "arrays" in files:
-                    arrays = _unbox(z["arrays"])
-                else:
-                    raise PostprocError(f"{path}: PySPH .npz version {version} is not "
-                                        "understood (expected 1 or 2)")
-        except PostprocError:
-            raise
-        except Exception as e:      # noqa: BLE001
-            raise PostprocError(f"{path}: not a readable PySPH .npz file ({e})")
-    else:
-        import h5py
-        try:
-            with h5py.File(path, "r") as f:
-                if "particles" not in f or "solver_data" not in f:
-                    raise PostprocError(f"{path}: not a PySPH .hdf5 file (expected the "
-                                        "groups particles and solver_data)")
-                solver = {k: f["solver_data"].attrs[k] for k in f["solver_data"].attrs}
-                arrays = {}
-                for name, grp in f["particles"].items():
-                    arrays[name] = {p: d[()] for p, d in grp["arrays"].items()
-                                    if d.attrs.get("stored", True) and d.shape != (0,)}
-        except PostprocError:
-            raise
-        except Exception as e:      # noqa: BLE001
-            raise PostprocError(f"{path}: not a readable PySPH .hdf5 file ({e})")
-    arrays = {_str(k): {_str(p): np.asarray(v) for p, v in a.items()} for k, a in arrays.items()}
-    if array is None:
-        array = "fluid" if "fluid" in arrays or len(arrays) != 1 else next(iter(arrays))
-    if array not in arrays:
-        raise PostprocError(f"{path}: no particle array '{array}' (the file has "
-                            f"{', '.join(sorted(arrays))}): give --pysph-array")
-    solver = {_str(k): v for k, v in solver.items()}
-    time = float(solver["t"]) if "t" in solver else None
-    return arrays[array], time, None
-
-
-def _unbox(obj):
-    """A dict that numpy.savez stored as a 0-d object array."""
-    return obj.item() if isinstance(obj, np.ndarray) and obj.shape == () else obj[()]
-
-
-def _str(s):
-    return s.decode() if isinstance(s, bytes) else str(s)
-
-
-def pvd_times(directory):
-    """{file name: time} from the ParaView collections (*.pvd) of a directory."""
-    out = {}
-    for pvd in glob.glob(os.path.join(directory, "*.pvd")):
-        try:
-            root = ET.parse(pvd).getroot()
-        except ET.ParseError as e:
-            raise PostprocError(f"{pvd}: not a readable ParaView collection ({e})")
-        for ds in root.iter("DataSet"):
-            if ds.get("file") and ds.get("timestep") is not None:
-                out[os.path.basename(ds.get("file"))] = float(ds.get("timestep"))
-    return out
-
-
-# ---------------------------------------------------------------------------
 # One output time as canonical particle arrays
 # ---------------------------------------------------------------------------
 
@@ -562,94 +302,6 @@ def read_frame(path, fmt, fields, case_dim, pysph_array=None):
 
 
 # ---------------------------------------------------------------------------
-# Estimates from the particles
-# ---------------------------------------------------------------------------
-
-def wendland_weight(q):
-    """The Wendland C2 kernel's shape (K1 up to its normalisation, which a
-    weighted fit does not see): (1 - q/2)^4 (2q + 1) for q = r/h < 2."""
-    q = np.asarray(q, float)
-    return np.where(q < 2, (1 - q / 2)**4 * (2 * q + 1), 0.0)
-
-
-def pressure_at(point, x, p, volume, h):
-    """The pressure at `point` from the particles (x, p, volume V_j) by the
-    quadratic least-squares fit of D5 (doc/theory/): q minimises
-    Sum_j W(|x_j - point|/h) V_j (p_j - q(x_j))^2 over the particles within
-    2h, evaluated at the point; exact for a quadratic pressure field such as
-    the stretching patch's (X1).  With fewer than 3 (dim + 1) particles in
-    the support, or a singular fit, the Shepard average D4; NaN with none."""
-    d = x - np.asarray(point, float)
-    r = np.sqrt(np.sum(d**2, axis=1))
-    sel = r < 2 * h
-    if not sel.any():
-        return float("nan")
-    w = wendland_weight(r[sel] / h) * volume[sel]
-    dim = x.shape[1]
-    xi = d[sel] / h
-    cols = [np.ones(len(xi))] + [xi[:, k] for k in range(dim)] + \
-        [xi[:, i] * xi[:, j] for i in range(dim) for j in range(i, dim)]
-    basis = np.stack(cols, axis=1)
-    if sel.sum() >= 3 * (dim + 1):
-        a = basis.T @ (w[:, None] * basis)
-        if np.linalg.cond(a) < 1e10:
-            return float(np.linalg.solve(a, basis.T @ (w * p[sel]))[0])
-    return float(np.sum(w * p[sel]) / np.sum(w))
-
-
-def fitted_semi_axes(x, m):
-    """(D2) Semi-axes from the mass-weighted second moments about the
-    centre of mass: 2 sqrt(<(x_k - c_k)^2>) in 2D, sqrt(5 <...>) in 3D."""
-    mt = np.sum(m)
-    c = (m @ x) / mt
-    var = np.maximum(0.0, (m @ x**2) / mt - c**2)
-    return np.sqrt(var * (4.0 if x.shape[1] == 2 else 5.0))
-
-
-def free_surface_outline(x, volume, dx, h=None, level=0.5):
-    """The free surface of 2D particles as closed polylines: the `level`
-    contour of the colour function C(x) = sum_j V_j W(|x - x_j|, h)
-    (Wendland C2, support 2 h; default h = 2 dx), which is 1 inside a
-    uniform arrangement and falls to 1/2 at its surface.  Sampled on a grid
-    of dx / 2, traced by contourpy (matplotlib's contouring).  Returns the
-    list of (k, 2) arrays, outer boundaries and holes alike."""
-    h = 2.0 * dx if h is None else h
-    x = np.asarray(x)[:, :2]
-    g = dx / 2
-    lo = x.min(axis=0) - 2.5 * h
-    n = np.ceil((x.max(axis=0) + 2.5 * h - lo) / g).astype(int) + 1
-    grid = np.zeros((n[1], n[0]))
-    base = np.floor((x - lo) / g).astype(int)
-    reach = int(math.ceil(2 * h / g)) + 1
-    sigma = 7.0 / (4.0 * math.pi * h**2)
-    for di in range(-reach, reach + 1):
-        for dj in range(-reach, reach + 1):
-            i, j = base[:, 0] + di, base[:, 1] + dj
-            r = np.hypot(lo[0] + i * g - x[:, 0], lo[1] + j * g - x[:, 1]) / h
-            w = np.where(r < 2, sigma * (1 - r / 2) ** 4 * (1 + 2 * r), 0.0)
-            np.add.at(grid, (j, i), volume * w)
-    return contour(lo[0], lo[1], g, grid, level)
-
-
-def contour(x0, y0, dx, grid, level=0.5):
-    """The `level` contour of a grid (grid[j, i] at x0 + i dx, y0 + j dx) as a
-    list of (n, 2) polylines, traced by contourpy."""
-    import contourpy
-    ny, nx = grid.shape
-    gen = contourpy.contour_generator(x0 + dx * np.arange(nx), y0 + dx * np.arange(ny), grid)
-    return [np.asarray(c) for c in gen.lines(level) if len(c) > 1]
-
-
-def outline_measures(lines):
-    """Area enclosed (outer boundaries less holes, by the signed shoelace
-    sums), perimeter and number of closed curves of an outline."""
-    area = sum(0.5 * float(np.sum(ln[:-1, 0] * ln[1:, 1] - ln[1:, 0] * ln[:-1, 1]))
-               for ln in lines)
-    perim = sum(float(np.sum(np.hypot(*np.diff(ln, axis=0).T))) for ln in lines)
-    return abs(area), perim, len(lines)
-
-
-# ---------------------------------------------------------------------------
 # A foreign run
 # ---------------------------------------------------------------------------
 
@@ -743,13 +395,17 @@ class ForeignRun(Run):
     # -- the case in the options' units --------------------------------
     @staticmethod
     def _case(name, args):
+        """The case (CaseInfo) in the units of the options; the options'
+        values, given or assumed, in its units."""
         length = getattr(args, "length", None) or 1.0
         rho = getattr(args, "rho", None) or 1.0
         nml = {"run": {"case": name}, "physics": {"rho0": rho}}
+        opts = [("--length", length)]
         if name in ("circle2d", "ellipsoid3d"):
             a0 = getattr(args, "rate", None) or 1.0
             nml[name] = {"radius": length, "a0": a0}
-            c0 = 10 * a0 * length
+            speed = a0 * length
+            opts.append(("--rate", a0))
             if name == "ellipsoid3d" and getattr(args, "rates", None):
                 rates = _numbers(args.rates, "--rates", (3,))
                 if abs(sum(rates)) > 1e-12 * max(map(abs, rates)):
@@ -758,16 +414,22 @@ class ForeignRun(Run):
         elif name == "square_rotation":
             omega = getattr(args, "rate", None) or 1.0
             nml[name] = {"side": length, "omega": omega}
-            c0 = 7 * omega * length
+            speed = omega * length
+            opts.append(("--rate", omega))
         else:
             v0 = getattr(args, "v0", None) or 1.0
             nml[name] = {"side": length, "v0": v0}
-            c0 = 14 * v0
+            speed = v0
+            opts.append(("--v0", v0))
+        c0 = CASES[name].c0 * speed         # the shipped input's, in the options' units
         given = getattr(args, "c0", None)
         nml["physics"]["c0"] = given or c0
         c = case_info(nml)
         if not given:
-            c.notes.append(f"c0 not given (--c0): assumed {c0:g}, the shipped input's")
+            c.notes.append(f"c0 not given (--c0): assumed {c0:g}, the shipped input's "
+                           f"{CASES[name].c0:g} {CASES[name].speed}")
+        opts += [("--rho", rho), ("--c0", given or c0)]
+        c.units = " ".join(f"{k} {v:g}" for k, v in opts) + f" ({c.c0_label})"
         return c
 
     def _time(self, fr, pvd, output_dt):

@@ -30,8 +30,11 @@ import math
 import os
 import sys
 
-from . import core as sp
 from . import foreign
+from .cli import main_guard
+from .exceptions import PostprocError
+from .figures import use_agg
+from .filtering import add_filter_options, filter_from_args, filter_options, lowpass
 
 PROG = "plots"
 
@@ -70,10 +73,10 @@ def pressure_panel(ax, run, fc, tw, label=None, raw=True, reference=None, color=
         # an exact curve: the filtered pressure is P(t) + filter(p - P(t)),
         # the error filtered as postproc/errors does (sphpost.stretching_errors)
         _, _, pex = run.probe_signal(probe)
-        tu, _, ef = sp.lowpass(t, p - pex, fc, tw)
+        tu, _, ef = lowpass(t, p - pex, fc, tw)
         pf = np.interp(tu, t, pex) + ef
     else:
-        tu, _, pf = sp.lowpass(t, p, fc, tw)
+        tu, _, pf = lowpass(t, p, fc, tw)
     lab = (label + ": ") if label else ""
     if raw:
         ax.plot(t * c.rate, p / c.p_unit, lw=0.6, alpha=0.45, color=color,
@@ -95,19 +98,24 @@ def first_and_last(args, case, what):
     run = foreign.open_run(args.run_dir, args)
     c = run.case
     if c.name != case:
-        raise sp.PostprocError(f"'{what}' plots {case} runs; {run.path} is {c.name}")
+        raise PostprocError(f"'{what}' plots {case} runs; {run.path} is {c.name}")
     if len(run.snapshots) < 2:
-        raise sp.PostprocError(f"{run.path} needs at least two snapshots (t = 0 and the end)")
-    fc, tw, _ = sp.filter_from_args(c, args)
+        raise PostprocError(f"{run.path} needs at least two snapshots (t = 0 and the end)")
+    fc, tw, _ = filter_from_args(c, args)
     first, last = run.snapshot(0), run.snapshot(-1)
+    for s in (first, last):
+        # lengths in the case's scale (x / R) whatever the files' unit
+        s["position"] = s["position"] / c.length
+        for i in range(1, c.dim + 1):
+            s["attrs"][f"semi_axes_exact_{i}"] = s["attrs"][f"semi_axes_exact_{i}"] / c.length
     if "pressure" not in first:
-        raise sp.PostprocError(f"{run.snapshots[0]}: no pressure, which '{what}' colours "
+        raise PostprocError(f"{run.snapshots[0]}: no pressure, which '{what}' colours "
                                "the particles by")
     return run, fc, tw, first, last
 
 
 def fig_circle(args):
-    plt = sp.use_agg()
+    plt = use_agg()
     from matplotlib.patches import Ellipse
     run, fc, tw, s0, s1 = first_and_last(args, "circle2d", "circle")
     c = run.case
@@ -115,7 +123,7 @@ def fig_circle(args):
     fig = plt.figure(figsize=(13.5, 6.4))
     gs = fig.add_gridspec(1, 3, width_ratios=[1.5, 0.8, 2.1], wspace=0.42,
                           left=0.05, right=0.98, bottom=0.1, top=0.86)
-    R = c.length
+    R = 1.0         # the positions are in units of R (first_and_last)
     for k, s in enumerate((s0, s1)):
         ax = fig.add_subplot(gs[0, k])
         a = [s["attrs"][f"semi_axes_exact_{i}"] for i in (1, 2)]
@@ -123,7 +131,7 @@ def fig_circle(args):
         x = s["position"]
         p = s["pressure"] / c.p_unit
         pc = s["attrs"]["p_centre_exact"] / c.p_unit
-        ms = marker_size(5.0, 2 * lim[1], run.dx)
+        ms = marker_size(5.0, 2 * lim[1], run.dx / c.length)
         # colours on the exact solution's range [0, P(t)]: SPH values outside
         # it (acoustic noise) saturate, as the colour bar's arrows show
         sc = ax.scatter(x[:, 0], x[:, 1], c=p, s=ms, cmap="viridis", linewidths=0,
@@ -149,7 +157,7 @@ def fig_circle(args):
     ax.set_xlim(0, run.time[-1] * c.rate)
     ax.legend(fontsize=9)
     ax.grid(alpha=0.3)
-    ax.text(0.98, 0.55, f"N = {run.n_particles:,}\nc0 = {c.c0:g} A0 R\n"
+    ax.text(0.98, 0.55, f"N = {run.n_particles:,}\n{c.c0_label}\n"
             f"filter cut-off {fc / c.rate:.3g} A0\n(= {fc / c.f_acoustic:.2g} x acoustic)",
             transform=ax.transAxes, ha="right", va="top", fontsize=9)
     fig.suptitle(f"Stretching circular patch (circle2d), N = {run.n_particles:,}: initial and "
@@ -160,7 +168,7 @@ def fig_circle(args):
 
 def fig_ellipsoid(args):
     import numpy as np
-    plt = sp.use_agg()
+    plt = use_agg()
     from matplotlib.patches import Ellipse
     run, fc, tw, s0, s1 = first_and_last(args, "ellipsoid3d", "ellipsoid")
     c = run.case
@@ -208,7 +216,7 @@ def fig_ellipsoid(args):
     ax = fig.add_subplot(gs[0, 2])
     a = [s1["attrs"][f"semi_axes_exact_{i}"] for i in (1, 2, 3)]
     x = s1["position"]
-    sel = np.abs(x[:, 1]) < 0.5 * run.dx
+    sel = np.abs(x[:, 1]) < 0.5 * run.dx / c.length
     sc = ax.scatter(x[sel, 0], x[sel, 2], c=s1["pressure"][sel] / c.p_unit, s=6,
                     cmap="viridis", linewidths=0, vmin=0,
                     vmax=s1["attrs"]["p_centre_exact"] / c.p_unit)
@@ -231,7 +239,7 @@ def fig_ellipsoid(args):
     ax.legend(fontsize=9)
     ax.grid(alpha=0.3)
     fig.suptitle(f"Stretching sphere (ellipsoid3d), N = {run.n_particles:,}, "
-                 f"c0 = {c.c0:g} A0 R, rates {run.nml.get('ellipsoid3d', {}).get('rates', '')}",
+                 f"{c.c0_label}, rates {run.nml.get('ellipsoid3d', {}).get('rates', '')}",
                  fontsize=12)
     fig.subplots_adjust(left=0.05, right=0.94, top=0.93, bottom=0.07, hspace=0.25, wspace=0.25)
     return fig
@@ -239,25 +247,25 @@ def fig_ellipsoid(args):
 
 def fig_pressure(args):
     import numpy as np
-    plt = sp.use_agg()
+    plt = use_agg()
     runs = [foreign.open_run(d, args) for d in args.run_dirs]
     labels = args.labels or [os.path.basename(r.path.rstrip("/")) for r in runs]
     if len(labels) != len(runs):
-        raise sp.PostprocError(f"--labels needs one label per run ({len(runs)})")
+        raise PostprocError(f"--labels needs one label per run ({len(runs)})")
     fig, (ax, axs) = plt.subplots(2, 1, figsize=(10, 8), height_ratios=[1.6, 1])
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     c0 = runs[0].case
     for k, (run, lab) in enumerate(zip(runs, labels)):
         c = run.case
         if c.name != c0.name:
-            raise sp.PostprocError(f"the runs are of different cases ({c0.name}, {c.name})")
-        fc, tw, _ = sp.filter_from_args(c, args)
+            raise PostprocError(f"the runs are of different cases ({c0.name}, {c.name})")
+        fc, tw, _ = filter_from_args(c, args)
         col = colors[k % len(colors)]
         pressure_panel(ax, run, fc, tw, label=lab if len(runs) > 1 else None,
                        raw=not args.no_raw, reference=args.reference if k == 0 else "-",
                        color=col)
         probe = run.centre_probe() or "p_probe_1"
-        tu, yu, yf = sp.lowpass(*run.probe_samples(probe), fc, tw)
+        tu, yu, yf = lowpass(*run.probe_samples(probe), fc, tw)
         rem = (yu - yf) / c.p_unit
         spec = np.abs(np.fft.rfft(rem * np.hanning(len(rem)))) * 2 / np.sum(np.hanning(len(rem)))
         freq = np.fft.rfftfreq(len(rem), tu[1] - tu[0]) / c.rate
@@ -282,13 +290,13 @@ def fig_pressure(args):
 
 def fig_square(args):
     import numpy as np
-    plt = sp.use_agg()
+    plt = use_agg()
     run = foreign.open_run(args.run_dir, args)
     c = run.case
     if not c.square:
-        raise sp.PostprocError(f"'square' plots a square-patch run; {run.path} is {c.name}")
+        raise PostprocError(f"'square' plots a square-patch run; {run.path} is {c.name}")
     if not run.snapshots:
-        raise sp.PostprocError(f"{run.path} has no snapshots")
+        raise PostprocError(f"{run.path} has no snapshots")
     ref = None
     if getattr(args, "ref", None):
         from . import reference
@@ -304,7 +312,7 @@ def fig_square(args):
         if field not in s and not args.field and "pressure" in s:
             field = "pressure"          # another code's files: no vorticity
         if field not in s:
-            raise sp.PostprocError(f"snapshot {run.snapshots[i]} has no dataset '{field}'")
+            raise PostprocError(f"snapshot {run.snapshots[i]} has no dataset '{field}'")
         v = s[field] / (c.p_unit if field == "pressure" else c.rate)
         x = s["position"]
         # vorticity: a colour scale symmetric about 0
@@ -356,7 +364,7 @@ def save(args, echo=print):
     first = args.run_dir if hasattr(args, "run_dir") else args.run_dirs[0]
     out = args.output or os.path.join(first, f"{args.what}.png")
     fig.savefig(out, dpi=args.dpi)
-    sp.use_agg().close(fig)     # callers in one process (validate) draw many figures
+    use_agg().close(fig)     # callers in one process (validate) draw many figures
     echo(f"wrote {out}")
     return out
 
@@ -369,10 +377,10 @@ def draw(what, run_dirs, output=None, dpi=130, fopts=None, labels=None, referenc
     the command line's); ref: a reference run directory (square).  Returns
     the path written."""
     if what != "pressure" and len(run_dirs) != 1:
-        raise sp.PostprocError(f"'{what}' plots one run, got {len(run_dirs)}")
+        raise PostprocError(f"'{what}' plots one run, got {len(run_dirs)}")
     args = argparse.Namespace(what=what, output=output, dpi=dpi, labels=labels,
                               reference=reference, no_raw=no_raw, field=field, times=times,
-                              ref=ref, **vars(fopts or sp.filter_options()))
+                              ref=ref, **vars(fopts or filter_options()))
     if what == "pressure":
         args.run_dirs = list(run_dirs)
     else:
@@ -413,7 +421,7 @@ def command(argv, prog="postproc/plots"):
     for p in ps.values():
         p.add_argument("-o", "--output", metavar="PNG", help="output file")
         p.add_argument("--dpi", type=int, default=130)
-        sp.add_filter_options(p)
+        add_filter_options(p)
     args = ap.parse_args(argv)
     save(args)
     return 0
@@ -422,5 +430,5 @@ def command(argv, prog="postproc/plots"):
 def main(argv=None, prog="postproc/plots"):
     """The command line (argv defaults to sys.argv[1:]): returns the exit
     status; a PostprocError becomes a one-line message and status 2."""
-    return sp.main_guard(PROG, lambda a: command(a, prog),
+    return main_guard(PROG, lambda a: command(a, prog),
                          sys.argv[1:] if argv is None else argv)

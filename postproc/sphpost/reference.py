@@ -55,8 +55,10 @@ import time
 
 import numpy as np
 
-from . import core as sp
-from . import exact, foreign
+import sphpost as sp
+
+from . import cli, exact, figures, particles
+from .cases import PROBES
 
 PROG = "reference"
 CASES = ("square_rotation", "square_vortical")
@@ -155,7 +157,7 @@ class Setup:
     @property
     def probe(self):
         """The probe's position in units of L."""
-        return foreign.PROBES[self.case]
+        return PROBES[self.case]
 
     @property
     def p_unit(self):
@@ -177,7 +179,8 @@ class Setup:
     @classmethod
     def from_input(cls, case, path, **kw):
         if not os.path.isfile(path):
-            raise sp.PostprocError(f"input file '{path}' does not exist")
+            raise sp.PostprocError(f"input file '{path}' does not exist (run from the sph "
+                                   "repository, or give --input)")
         nml = sp.read_namelist(path)
         name = str(nml.get("run", {}).get("case", case)).lower()
         if name != case:
@@ -550,7 +553,7 @@ def fraction_grid(cells, s):
 
 # the `level` contour of a grid as polylines (the particles' free surface
 # uses the same tracer)
-contour = foreign.contour
+contour = particles.contour
 
 def cavities(grid, min_cells=4):
     """The light-phase regions (T < 0.5, 4-connected) that the dense phase
@@ -920,8 +923,8 @@ def study(dirs, echo=print):
 def colour_contour(snap, h, dx, level=0.5):
     """The free surface of a particle snapshot: the `level` contour of the
     colour function with smoothing length h, sampled at dx / 2
-    (foreign.free_surface_outline)."""
-    return foreign.free_surface_outline(snap["position"], snap["mass"] / snap["density"], dx,
+    (particles.free_surface_outline)."""
+    return particles.free_surface_outline(snap["position"], snap["mass"] / snap["density"], dx,
                                         h, level)
 
 
@@ -1063,7 +1066,7 @@ def figure(runs, refs, output, labels=None, dpi=110):
     references' (the paper's Figure 4 with a reference), and the free
     surfaces at the interface times: the particles and the finest
     reference's interface (Figures 3 and 5).  Written to output (PNG)."""
-    plt = sp.use_agg()
+    plt = figures.use_agg()
     # the boundary-integral reference, if given, is the principal one
     refs = sorted((Reference(d) for d in refs), key=lambda r: (r.setup.method == "bem",
                                                                r.setup.resolution))
@@ -1269,5 +1272,5 @@ def command(argv, prog="postproc/reference"):
 
 
 def main(argv=None, prog="postproc/reference"):
-    return sp.main_guard(prog, lambda a: command(a, prog), sys.argv[1:] if argv is None
+    return cli.main_guard(prog, lambda a: command(a, prog), sys.argv[1:] if argv is None
                          else argv)

@@ -32,12 +32,13 @@ import sys
 import tempfile
 import time
 
-from . import convergence, plots
-from . import core as sp
+import sphpost as sp
+
+from . import cli, convergence, figures, plots
 from . import filter as probe_filter    # (the name filter is Python's)
 
 # the repository: this file is postproc/sphpost/validate.py
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+ROOT = cli.repository_root()
 PROG = "validate"
 
 # The studies.  Each entry: case, input file, particle numbers, overrides.
@@ -254,7 +255,7 @@ def rel(path, doc):
 def pressure_error_figure(runs, out, fc_frac):
     """Filtered centre-pressure error against time for each resolution."""
     import numpy as np
-    plt = sp.use_agg()
+    plt = figures.use_agg()
     fig, ax = plt.subplots(figsize=(8, 4.5))
     for run in runs:
         fc, _ = sp.cutoff(run.case, fc_frac)
@@ -878,7 +879,7 @@ def write_report(path, doc, circle, ell, squares, args, total_wall, jobs, load):
         nml = runs[0].nml
         num = nml.get("numerics", {})
         w(f"Defaults of `input/circle2d.nml`: kernel {num.get('kernel')}, h = "
-          f"{nml.get('particles', {}).get('h_over_dx')} dx, c0 = {c.c0:g} A0 R, "
+          f"{nml.get('particles', {}).get('h_over_dx')} dx, c0 = {c.c0_scaled:g} A0 R, "
           f"{num.get('viscosity')} viscosity alpha = {num.get('alpha')}, {num.get('diffusion')} "
           f"diffusion delta = {num.get('delta')}, {num.get('integrator')} at cfl "
           f"{num.get('cfl')}, placement {nml.get('particles', {}).get('placement')}, "
@@ -981,14 +982,14 @@ def write_report(path, doc, circle, ell, squares, args, total_wall, jobs, load):
         if pf is not None:
             w(f"- The weakly compressible model's own centre pressure departs from the "
               f"incompressible P(t) by {pct(e80['mean']['slow'])} % of P(0) on average at "
-              f"c0 = {c.c0:g} A0 R (I2, doc/studies/numerics.md: -P''(t) R^2 (dim + 4)/(4 dim (dim + 2) "
+              f"c0 = {c.c0_scaled:g} A0 R (I2, doc/studies/numerics.md: -P''(t) R^2 (dim + 4)/(4 dim (dim + 2) "
               "c0^2), slow, so the filter keeps it). The filtered error cannot converge below "
               "this floor at a fixed c0; it falls as 1/c0^2.")
         raws = [e["mean"].get("p_raw") for e in res]
         if all(v is not None for v in raws):
             w("- The raw centre pressure carries the acoustic oscillation of the weakly "
               f"compressible model (mean raw error {pct(min(raws))} to {pct(max(raws))} % of "
-              f"P(0) at c0 = {c.c0:g} A0 R, hardly changing with N), so its mean error does "
+              f"P(0) at c0 = {c.c0_scaled:g} A0 R, hardly changing with N), so its mean error does "
               "not converge: the filter is what makes the pressure comparable, as in the "
               "paper.")
         w("- The semi-axis error settles at a resolution-independent bias of a few tenths of a "
@@ -1054,7 +1055,7 @@ def write_report(path, doc, circle, ell, squares, args, total_wall, jobs, load):
         # h/dx of each run: the input's rule (doc/studies/convergence.md S1)
         hs = ", ".join(f"{sp.scaled_input(r.nml, 3, 'particles', 'h_over_dx', 'h_exponent', 2):.2f}"
                        for r in runs)
-        w(f"rates (-1, -1, 2) A0 (prolate), c0 = {c.c0:g} A0 R, h/dx = {hs} (the input's "
+        w(f"rates (-1, -1, 2) A0 (prolate), c0 = {c.c0_scaled:g} A0 R, h/dx = {hs} (the input's "
           f"rule: {part.get('h_over_dx')} at {float(part.get('n_ref', 0)):,.0f} particles, exponent "
           f"{part.get('h_exponent', 0)}), {num.get('divergence')} "
           f"divergence and {num.get('pressure_gradient')} pressure gradient (the input file's "
@@ -1090,7 +1091,7 @@ def write_report(path, doc, circle, ell, squares, args, total_wall, jobs, load):
         w("The paper: \"errors on the kinematic quantities are very comparable to those found "
           "in two dimensions for the same discretization\". Compare at equal dx/R with the "
           f"circle2d table{near}. In 3D, with "
-          f"c0 = {c.c0:g}, the lowest acoustic frequency c0/(2R) is only "
+          f"{c.c0_label}, the lowest acoustic frequency c0/(2R) is only "
           f"{c.f_acoustic / max(abs(a) for a in c.rates):.3g} times the flow's largest rate "
           f"{max(abs(a) for a in c.rates) / c.rate:g} A0, so the filter cannot separate the "
           "acoustic part as cleanly as in 2D (see the filter-bias column).")
@@ -1220,6 +1221,7 @@ def write_report(path, doc, circle, ell, squares, args, total_wall, jobs, load):
 def command(argv, prog="postproc/validate"):
     """The tool on the arguments argv (without the program name); prints its
     progress and returns the exit status.  Raises PostprocError."""
+    cli.require_repository(ROOT, "validate")
     ap = argparse.ArgumentParser(prog=prog, description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--runs", default=os.path.join(ROOT, "runs", "validate"),
@@ -1362,5 +1364,5 @@ def command(argv, prog="postproc/validate"):
 def main(argv=None, prog="postproc/validate"):
     """The command line (argv defaults to sys.argv[1:]): returns the exit
     status; a PostprocError becomes a one-line message and status 2."""
-    return sp.main_guard(PROG, lambda a: command(a, prog),
+    return cli.main_guard(PROG, lambda a: command(a, prog),
                          sys.argv[1:] if argv is None else argv)

@@ -590,3 +590,30 @@ def test_the_papers_figures_of_a_foreign_run_are_ours(our_run, tmp_path):
     assert pictures["ours"].shape == pictures["plain"].shape
     assert np.array_equal(pictures["ours"], pictures["plain"])
     assert np.array_equal(pictures["ours"], pictures["vtk"])
+
+
+def test_side_files_are_told_apart(perturbed, tmp_path):
+    # a DualSPHysics PartVTK folder with the CSV tables a run writes beside
+    # it and a ParaView collection, a plain-CSV folder with a probe's table:
+    # read without --pattern, with the errors of the files alone
+    import shutil
+    frames, runs, _ = perturbed
+    mean, _ = expected_means(frames, SHIFT, BIAS)
+    d = shutil.copytree(runs["vtk_xz"][0], tmp_path / "dsph")
+    (d / "Run.csv").write_text("Part;TimeStep;Time;Np\n0;0.001;0;316\n")
+    (d / "RunPARTs.csv").write_text("Part;Time;TotalSteps\n0;0;0\n1;0.1;100\n")
+    (d / "CfgInit_Domain.vtk").write_text("# vtk DataFile Version 3.0\n")
+    c = shutil.copytree(runs["csv"][0], tmp_path / "plain")
+    (c / "centre_probe.csv").write_text("t,p\n0,0.25\n1,0.07\n")
+    for path, extra in ((d, ["--output-dt", 0.1]), (c, [])):
+        r = report("--case", "circle2d", path, *extra)
+        for k in ("pos", "vel", "ke"):
+            assert math.isclose(r["mean"][k], mean[k], rel_tol=1e-9, abs_tol=1e-11), (path, k)
+    # two numbered series that both hold particles: the message names them
+    # with their real extensions and a --pattern taken from them
+    for f in sorted(c.glob("frame_000[0-3].csv")):
+        (c / f.name.replace("frame", "bound")).write_text(f.read_text())
+    p = errors("--case", "circle2d", c, check=False)
+    assert p.returncode == 2
+    assert ("several series of particle files (frame_*.csv (11 files), bound_*.csv (4 files)): "
+            "choose one with --pattern, e.g. --pattern 'frame_*.csv'") in p.stderr, p.stderr

@@ -14,7 +14,7 @@ import pytest
 from common import ROOT, run_sph
 
 sys.path.insert(0, str(ROOT / "postproc"))
-from sphpost import core as sp  # noqa: E402
+import sphpost as sp  # noqa: E402
 from sphpost import reference as ref  # noqa: E402
 
 

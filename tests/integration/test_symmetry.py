@@ -20,7 +20,7 @@ import test_operations as ops
 from common import ROOT, run_sph
 
 sys.path.insert(0, str(ROOT / "postproc"))
-from sphpost.core import Run  # noqa: E402
+from sphpost import Run  # noqa: E402
 
 FIELDS = ("position", "velocity", "density", "pressure", "free_surface_lambda")
 
