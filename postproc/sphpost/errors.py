@@ -185,7 +185,8 @@ def command(argv, prog="postproc/errors"):
     ap.add_argument("--csv", metavar="FILE", help="also write the table as CSV")
     ap.add_argument("--reference", metavar="DIR",
                     help="the squares: compare with this reference run of postproc/reference "
-                         "(doc/validation/reference.md)")
+                         "(doc/validation/reference.md); 'bem': the rotating square's "
+                         "boundary-integral reference shipped with the package")
     ap.add_argument("--json", action="store_true",
                     help="print the means and final values as JSON instead of the tables")
     ap.add_argument("--check-snapshots", action="store_true",

@@ -788,10 +788,19 @@ def curve_distance(a, b, ds=1e-3):
     return float(d.mean()), float(d.max())
 
 
+# The rotating square's boundary-integral reference shipped with the package
+# (make reference-bem writes it); `--reference bem` names it.
+SHIPPED_BEM = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data",
+                           "square_rotation_bem")
+
+
 class Reference:
-    """A reference run directory, analysed: its settings, summary and series."""
+    """A reference run directory, analysed: its settings, summary and series
+    ('bem': the boundary-integral reference shipped with the package)."""
 
     def __init__(self, path):
+        if path == "bem":
+            path = SHIPPED_BEM
         self.path = path
         self.setup = load_setup(path)
         sj = os.path.join(path, "summary.json")
