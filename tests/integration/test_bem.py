@@ -106,6 +106,19 @@ def test_the_command_writes_a_reference_the_comparisons_read(tmp_path):
     assert first.startswith("# boundary-integral method, 256 nodes")
     surf = rf.interface(0.5)[0]
     assert np.allclose(surf[0], surf[-1])                   # a closed curve
+    # the shipped reference (make reference-bem: its finest run, cut at its
+    # interval of convergence) reads back and agrees with this regeneration
+    # at 256 nodes: p_A within 2.4e-10 of |p_A(0)| and the surface at 0.5
+    # within 2.3e-5 L of 1024 nodes' (measured): asserted at 1e-8 and 5e-5 L
+    shipped = ref.Reference("bem")
+    assert shipped.path == str(SHIPPED) and shipped.setup.method == "bem"
+    study = json.loads((SHIPPED / "study.json").read_text())
+    assert shipped.t_end == pytest.approx(study["converged_until"]) and shipped.t_end >= 1.0
+    assert shipped.pressure["t"][-1] == pytest.approx(shipped.t_end)
+    assert (SHIPPED / "pressure.csv").read_text().startswith("# boundary-integral method")
+    p = np.interp(rf.pressure["t"], shipped.pressure["t"], shipped.pressure["p"])
+    assert np.max(np.abs(rf.pressure["p"] - p)) < 1e-8 * abs(shipped.pressure["p"][0])
+    assert ref.curve_distance(rf.interface(0.5), shipped.interface(0.5), ds=2e-5)[1] < 5e-5
     # bad settings are refused with the variable and what is allowed
     r = subprocess.run([sys.executable, str(ROOT / "postproc" / "reference"), "bem",
                         "--nodes", "100", "--dir", str(tmp_path / "x")],
