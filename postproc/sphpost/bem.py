@@ -717,6 +717,27 @@ def study(dirs, echo=print, tol=1e-4):
     return res
 
 
+SHIPPED_README = """# The rotating square by boundary integrals
+
+The incompressible, inviscid rotating square of Le Touze & Colagrossi's prototype problem 2
+(side L, omega, rho; L = omega = rho = 1 here), computed by `postproc/reference bem`
+(sphpost.bem; the equations: doc/theory/solutions.md X7, the method and its study:
+doc/validation/reference.md):
+
+    {header}
+
+Converged over t omega in [0, {until:g}]: the runs with {nodes[0]} and {nodes[1]} nodes
+differ there by at most {p_max:.1e} % of |p_A(0)| in p_A and {s_max:.1e} L in the free
+surface (study.md, study.json). The files hold this interval only: `pressure.csv` (p_A every
+0.01), `integrals.csv` (area, kinetic energy), `tips.csv` (the arm tips' radius and
+curvature), `interface_T.csv` (the free surface, a closed polyline), `setup.json`,
+`summary.json`; units L, 1/omega, rho omega^2 L^2.
+
+Regenerate it: `make reference-bem` (the study's runs into runs/reference/square_rotation/,
+then `postproc/reference bem-study ... --ship postproc/sphpost/data/square_rotation_bem`).
+Compare a run with it: `postproc/errors --case square_rotation RUN --reference bem`.
+"""
+
 SURFACE_TOL = 1e-4      # the surfaces' bar for convergence, in L
 SURFACE_UPSAMPLE = 2    # points written per node on the surfaces
 
@@ -761,5 +782,8 @@ def ship(ref_dir, out_dir, res, study_text):
             json.dump(obj, f, indent=1)
     with open(os.path.join(tmp, "study.md"), "w") as f:
         f.write(study_text)
+    with open(os.path.join(tmp, "README.md"), "w") as f:
+        f.write(SHIPPED_README.format(header=sm["header"], until=until, nodes=res["nodes"],
+                                      p_max=100 * res["p_max"], s_max=res["surface_max"]))
     shutil.rmtree(out_dir, ignore_errors=True)
     os.replace(tmp, out_dir)
