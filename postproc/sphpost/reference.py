@@ -1252,7 +1252,8 @@ def command(argv, prog="postproc/reference"):
             if "converged_until" not in res:
                 raise sp.PostprocError("--ship needs two runs that differ in their nodes alone")
             bem.ship(res["base"], args.ship, res, "\n".join(lines) + "\n")
-            print(f"{prog}: wrote {args.ship} (to t omega = {res['converged_until']:g})")
+            print(f"{prog}: wrote {args.ship} (to t omega = {res['converged_until']:g})",
+                  file=sys.stderr)
         if args.json:
             with open(args.json, "w") as f:
                 json.dump(res, f, indent=1)
