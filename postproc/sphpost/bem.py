@@ -658,8 +658,7 @@ def study(dirs, echo=print, tol=1e-4):
             raise ValueError(f"'{r.path}' is not a boundary-integral reference")
     reg = ("dt", "n_corner", "filter_order")
     key = lambda r: (r.setup.params.nodes, -r.setup.params.dt)     # noqa: E731
-    base = max(refs, key=key)
-    bp = base.setup.params
+    bp = max(refs, key=key).setup.params           # the regularisation compared against
     name = lambda r: os.path.basename(r.path.rstrip("/"))           # noqa: E731
     echo("| run | nodes | dt omega | corners n | filter order | p_A(0) against the series | "
          "largest area drift | largest KE drift | clean until t omega | steps | wall time |")
@@ -672,13 +671,14 @@ def study(dirs, echo=print, tol=1e-4):
              f"{sm['wall_time_s']:.0f} s |")
     standard = lambda r: all(getattr(r.setup.params, k) == getattr(bp, k)   # noqa: E731
                              for k in reg)
-    pairs = [(r, base) for r in sorted(refs, key=key) if standard(r) and r is not base]
+    std = sorted((r for r in refs if standard(r)), key=key)
+    pairs = list(zip(std[:-1], std[1:]))          # each node count against the next
     for r in sorted(refs, key=key):
         if not standard(r):
             same = [q for q in refs if standard(q) and q.setup.params.nodes == r.setup.params.nodes]
             if same:
                 pairs.append((r, same[0]))
-    times = base.interface_times()
+    times = sorted({t for r in refs for t in r.interface_times()})
     echo(f"\nEach run against another: the largest |p_A difference| over their common interval "
          f"in % of |p_A(0)|, the time up to which it stays within {100 * tol:g} %, and at each "
          "surface time the surfaces' largest distance in L (the tips' radius difference):\n")
@@ -698,18 +698,25 @@ def study(dirs, echo=print, tol=1e-4):
         out.append({"run": r.path, "against": o.path, "differs": what,
                     **{k: v for k, v in g.items() if k != "surfaces"},
                     "surfaces": {f"{t:g}": v for t, v in g["surfaces"].items()}})
-    res = {"base": base.path, "pairs": out}
-    # the interval of convergence: the finest run against the next in nodes
-    nodes_pairs = [o for o in out if o["against"] == base.path and standard(Reference(o["run"]))]
-    if nodes_pairs:
-        g = max(nodes_pairs, key=lambda o: Reference(o["run"]).setup.params.nodes)
-        nxt = Reference(g["run"])
-        bad = [float(t) for t, (d, _) in g["surfaces"].items() if d > SURFACE_TOL]
-        until = min([g["within"]] + [t - 0.5 for t in bad])     # the surface before
+    res = {"pairs": out}
+    # the interval of convergence: where two successive node counts agree;
+    # the reference is the finer run of the pair that agrees longest (a
+    # finer run can end sooner: the instability grows its round-off faster)
+    best = None
+    for o in out[:len(std) - 1]:
+        bad = [float(t) for t, (d, _) in o["surfaces"].items() if d > SURFACE_TOL]
+        until = min([o["within"]] + [t - 0.5 for t in bad])     # the surface before
+        if best is None or until >= best[0]:
+            best = (until, o)
+    if best is not None:
+        until, g = best
+        coarse, base = Reference(g["run"]), Reference(g["against"])
         surf = [d for t, (d, _) in g["surfaces"].items() if float(t) <= until + 1e-9]
-        res.update({"converged_until": float(until), "nodes": [nxt.setup.params.nodes, bp.nodes],
-                    "p_max": float(_p_max_until(nxt, base, until)),
+        res.update({"base": base.path, "converged_until": float(until),
+                    "nodes": [coarse.setup.params.nodes, base.setup.params.nodes],
+                    "p_max": float(_p_max_until(coarse, base, until)),
                     "surface_max": float(max(surf)) if surf else float("nan")})
+        nxt, bp = coarse, base.setup.params
         echo(f"\nConverged (p_A within {100 * tol:g} % of |p_A(0)| and the surfaces within "
              f"{SURFACE_TOL:g} L between {nxt.setup.params.nodes} and {bp.nodes} nodes) over "
              f"t omega in [0, {until:g}]: there p_A differs by at most "
