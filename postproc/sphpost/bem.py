@@ -641,7 +641,8 @@ def pair_gap(a, b, tol=1e-4):
     for t in sorted(set(a.interface_times()) & set(b.interface_times())):
         ca, cb = a.interface(t), b.interface(t)
         # resampled at 2e-5 L: the point-to-point distance's own floor is half of it
-        surf[t] = (curve_distance(ca, cb, ds=2e-5)[1], tip_radius(ca) - tip_radius(cb))
+        mean, largest = curve_distance(ca, cb, ds=2e-5)
+        surf[t] = (largest, tip_radius(ca) - tip_radius(cb), mean)
     return {"end": float(end), "p_max": float(d.max()), "within": within, "surfaces": surf}
 
 
@@ -681,7 +682,8 @@ def study(dirs, echo=print, tol=1e-4):
     times = sorted({t for r in refs for t in r.interface_times()})
     echo(f"\nEach run against another: the largest |p_A difference| over their common interval "
          f"in % of |p_A(0)|, the time up to which it stays within {100 * tol:g} %, and at each "
-         "surface time the surfaces' largest distance in L (the tips' radius difference):\n")
+         "surface time the surfaces' largest / mean distance in L (the tips' radius "
+         "difference):\n")
     echo("| run | against | differs in | common end | p_A largest | within tolerance to | "
          + " | ".join(f"surface {t:g}" for t in times) + " |")
     echo("|---|---|---|---|---|---|" + "---|" * len(times))
@@ -691,7 +693,7 @@ def study(dirs, echo=print, tol=1e-4):
         what = [f"{k} {getattr(p, k):g} / {getattr(op, k):g}" for k in ("nodes",) + reg
                 if getattr(p, k) != getattr(op, k)]
         g = pair_gap(r, o, tol)
-        cells = [f"{g['surfaces'][t][0]:.1e} ({g['surfaces'][t][1]:+.1e})"
+        cells = ["{:.1e} / {:.1e} ({:+.1e})".format(*(g["surfaces"][t][k] for k in (0, 2, 1)))
                  if t in g["surfaces"] else "" for t in times]
         echo(f"| {name(r)} | {name(o)} | {', '.join(what)} | {g['end']:.2f} | "
              f"{100 * g['p_max']:.1e} % | {g['within']:.2f} | " + " | ".join(cells) + " |")
@@ -704,14 +706,14 @@ def study(dirs, echo=print, tol=1e-4):
     # finer run can end sooner: the instability grows its round-off faster)
     best = None
     for o in out[:len(std) - 1]:
-        bad = [float(t) for t, (d, _) in o["surfaces"].items() if d > SURFACE_TOL]
+        bad = [float(t) for t, (d, _, _) in o["surfaces"].items() if d > SURFACE_TOL]
         until = min([o["within"]] + [t - 0.5 for t in bad])     # the surface before
         if best is None or until >= best[0]:
             best = (until, o)
     if best is not None:
         until, g = best
         coarse, base = Reference(g["run"]), Reference(g["against"])
-        surf = [d for t, (d, _) in g["surfaces"].items() if float(t) <= until + 1e-9]
+        surf = [d for t, (d, _, _) in g["surfaces"].items() if float(t) <= until + 1e-9]
         res.update({"base": base.path, "converged_until": float(until),
                     "nodes": [coarse.setup.params.nodes, base.setup.params.nodes],
                     "p_max": float(_p_max_until(coarse, base, until)),
