@@ -680,15 +680,28 @@ def reference_claims(ref):
     import numpy as np
     if ref is None or len(ref["schemes"]) < 3 or not all(rows for _, rows in ref["schemes"]):
         return []
-    fin = {label: rows[-1][1] for label, rows in ref["schemes"]}
+    def whole(run):
+        """The patch stayed one piece without holes (a fragmented run's p_A
+        is the void's, not the scheme's)."""
+        try:
+            return (np.max(run.column("fluid_holes")) == 0
+                    and run.column("fluid_components")[-1] == 1)
+        except Exception:
+            return True
+    # each scheme's finest run that stayed whole
+    fin, runs_ = {}, {}
+    for label, rows in ref["schemes"]:
+        kept = [(r, c) for r, c in rows if whole(r)] or rows
+        runs_[label], fin[label] = kept[-1]
     labels = [label for label, _ in ref["schemes"]]
     std, ho = fin[labels[2]], fin[labels[1]]
     # over the interval where the reference has converged, if it has
     key, unc = ("p_until", "p_until_mean") if ref.get("until") else ("p_trim", "p_mean")
     u = (ref.get("uncertainty") or {}).get(unc)
-    n = ref["schemes"][2][1][-1][0].n_particles
+    n = runs_[labels[2]].n_particles
+    frag = [r.n_particles for r, _ in ref["schemes"][2][1] if not whole(r)]
     where = f"over [{std[key][0]:g}, {std[key][1]:.3g}]" if key in std else ""
-    band = (f"{where}; the reference's own uncertainty there {100 * u:.2f} %" if u is not None
+    band = (f"{where}; the reference's own uncertainty there {100 * u:.2g} %" if u is not None
             else "no second reference level for its uncertainty")
     bias = std.get(f"{key}_bias", np.nan)
     if u is not None and abs(bias) <= u:
@@ -698,15 +711,18 @@ def reference_claims(ref):
     rows = [("the standard SPH's p_A: \"its mean evolution is slightly lower\" than the "
              "incompressible one", "Figure 4, against the BEM",
              f"mean filtered p_A minus the reference's {100 * bias:+.2f} % of |p_A(0)| "
-             f"(N = {n:,}; {band})", v1)]
+             f"(N = {n:,}; {band}"
+             + (f"; at N = {', '.join(f'{k:,}' for k in frag)} the patch fragments"
+                if frag else "") + ")", v1)]
     a, b = ho.get(f"{key}_mean", np.nan), std.get(f"{key}_mean", np.nan)
     if u is not None and abs(a - b) <= u:
         v2 = "not decided: the schemes differ by less than the reference's uncertainty"
     else:
         v2 = "holds" if a < b else "does not hold: the standard one is closer"
     rows.append(("the higher-order SPH's p_A \"shows to be much closer\" to the incompressible "
-                 "one", "Figure 4", f"mean |difference| {100 * a:.2f} % (higher-order) against "
-                 f"{100 * b:.2f} % (standard, tensile control); {band}", v2))
+                 "one", "Figure 4", f"mean |difference| {100 * a:.2f} % (higher-order, N = "
+                 f"{runs_[labels[1]].n_particles:,}) against {100 * b:.2f} % (standard, tensile "
+                 f"control, N = {n:,}); {band}", v2))
     return rows
 
 
