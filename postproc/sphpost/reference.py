@@ -1194,10 +1194,11 @@ def command(argv, prog="postproc/reference"):
     b.add_argument("--input", default=os.path.join("input", "square_rotation.nml"),
                    help="the case's input file: side, omega, rho0, t_end (default "
                    "%(default)s)")
-    b.add_argument("--nodes", type=int, default=2048,
+    b.add_argument("--nodes", type=int, default=1536,
                    help="nodes on the surface, a multiple of 8 (default %(default)s)")
-    b.add_argument("--dt", type=float, default=0.0025,
-                   help="the RK4 step in 1/omega, dividing 0.01 (default %(default)s)")
+    b.add_argument("--dt", type=float, default=0.005,
+                   help="the RK4 step in 1/omega, dividing 0.01; it shrinks as the nodes "
+                   "crowd at the tips (default %(default)s)")
     b.add_argument("--t-end", type=float, help="end time in 1/omega (default the input's)")
     b.add_argument("--n-corner", type=int, default=24,
                    help="the corners' rounding: the superellipse's exponent (default "

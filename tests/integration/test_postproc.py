@@ -474,7 +474,7 @@ def test_validate_quick_writes_report(scratch):
     tmp = scratch("validate")
     script("validate", "--quick", "--cases", "circle2d", "--runs", tmp / "runs",
            "--doc", tmp / "doc", "--sph", SPH)
-    md = (tmp / "doc" / "validation.md").read_text()
+    md = (tmp / "doc" / "patches.md").read_text()
     # the smallest packed disc: 1,256 particles for particles.n = 1250
     assert "| 1,256 |" in md and "least squares" in md and "Beside the paper's claims" in md
     for png in ("convergence", "fig1", "pressure_error", "spectrum"):
@@ -492,12 +492,12 @@ def test_validate_in_pieces_continues_from_checkpoints(scratch):
     # (the recipe at 1,257 particles, started first) about 10 s
     p = script("validate", *common, "--wall-limit", "2", check=False)
     assert p.returncode == 75, p.stdout + p.stderr
-    assert "report not written" in p.stdout and not (tmp / "doc" / "validation.md").exists()
+    assert "report not written" in p.stdout and not (tmp / "doc" / "patches.md").exists()
     stopped = [log for log in (tmp / "runs").glob("*.log")
                if "sph: stopped by run.wall_limit" in log.read_text()]
     assert stopped, p.stdout
     p = script("validate", *common, "--reuse")
-    assert (tmp / "doc" / "validation.md").exists()
+    assert (tmp / "doc" / "patches.md").exists()
     cont = re.findall(r"^  continue circle2d N = \d+: (.*)$", p.stdout, re.M)
     assert len(cont) == len(stopped), p.stdout
     # the first continued run again, uninterrupted, into a directory of its own
@@ -551,11 +551,11 @@ def test_validate_ctrl_c_stops_runs_with_checkpoints(scratch):
     assert "interrupted" in out and "report not written" in out and "not started" in out, out
     assert "sph: stopped by SIGUSR1" in log.read_text()
     assert (tmp / "runs" / "circle2d_convergence_1257" / "checkpoint.h5").exists()
-    assert not (tmp / "doc" / "validation.md").exists()
+    assert not (tmp / "doc" / "patches.md").exists()
     q = subprocess.run(common + ["--reuse"], capture_output=True, text=True, timeout=300)
     assert q.returncode == 0, q.stdout + q.stderr
     assert "continue circle2d N = 1257" in q.stdout
-    assert (tmp / "doc" / "validation.md").exists()
+    assert (tmp / "doc" / "patches.md").exists()
 
 
 def test_scripts_help_and_bad_run_directory(scratch, tiny_run):
@@ -706,16 +706,17 @@ def test_validate_compares_the_squares_schemes_with_a_reference(scratch):
             ref.write_csv(str(d / f"interface_{tk}.csv"), ("piece", "x", "y"),
                           zip(np.zeros(201, int), (0.5 + 0.1 * tk) * np.cos(th),
                               (0.5 + 0.1 * tk) * np.sin(th)))
+    # (--bem '': Gerris's levels alone, as for the vortical square)
     script("validate", "--quick", "--cases", "square_rotation", "--runs", tmp / "runs",
-           "--doc", tmp / "doc", "--sph", SPH, "--reference", tmp / "ref")
-    md = (tmp / "doc" / "validation.md").read_text()
-    assert "Against the Gerris reference (64 cells per L" in md
+           "--doc", tmp / "doc", "--sph", SPH, "--reference", tmp / "ref", "--bem", "")
+    md = (tmp / "doc" / "patches.md").read_text()
+    assert "Against the reference (Gerris, 64 cells per L" in md
     # the levels differ by 0.2 % of |p(0)| everywhere
     assert "its levels 8 and 9 against each other: probe pressure 0.2 %" in md
     assert "mean difference +0.200 %" in md
     # within the 0.3 % bar over the whole record: the claims judged on [0.1, 3.9]
     assert "has converged to the bar" in md and "over [0.1, 3.9]; the reference's own " \
-        "uncertainty there 0.20 %" in md
+        "uncertainty there 0.2 %" in md
     c = ref.compare(str(tmp / "runs" / "square_rotation_paper_2500"),
                     str(tmp / "ref" / "square_rotation" / "level_9"), echo=lambda m: None,
                     until=4.0)
@@ -726,3 +727,11 @@ def test_validate_compares_the_squares_schemes_with_a_reference(scratch):
     assert f"{c['interface']['1'][0]:.4f}" in row and f"{c['tip']['4']:+.4f}" in row
     assert md.count("| the standard SPH's p_A") == 1 and "shows to be much closer" in md
     assert (tmp / "doc" / "validation_square_rotation_reference.png").exists()
+    # by default the rotating square is judged against the shipped
+    # boundary-integral reference, Gerris's finest level its second
+    script("validate", "--quick", "--cases", "square_rotation", "--runs", tmp / "runs",
+           "--doc", tmp / "doc2", "--sph", SPH, "--reference", tmp / "ref", "--reuse")
+    md = (tmp / "doc2" / "patches.md").read_text()
+    assert "Against the reference (boundary integrals, 1536 nodes" in md
+    assert "converged over t omega in [0, 2.84]" in md and "The targets" in md
+    assert "Gerris's finest level (Gerris, 64 cells per L" in md
