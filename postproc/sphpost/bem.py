@@ -26,6 +26,7 @@ Krasny's threshold on the nodes and phi after each step; the nodes
 redistributed every few steps by a density that follows the curvature and
 the arms' width (doc/validation/reference.md).
 """
+import functools
 import math
 import os
 
@@ -172,24 +173,18 @@ UPSAMPLE = 2     # the quadrature's grid, finer than the nodes' (X7): 2 and 8 gi
                 # within 5e-12 on 1024 nodes at t omega = 1.6 (arms 4 spacings wide)
 
 
+@functools.lru_cache(maxsize=1)
 def upsampling_matrix(n, up, m):
     """The trigonometric interpolation from a quarter's m nodes (the whole
     curve's n = 4 m samples, invariant under the symmetry) to the up * n
     points of the finer grid: the Dirichlet kernel, summed over the
-    quarters.  Depends on (n, up) only."""
-    key = (n, up)
-    if key not in _UPSAMPLING:
-        x = 2 * math.pi * np.arange(up * n) / (up * n)
-        y = x[:, None] - 2 * math.pi * np.arange(n)[None, :] / n
-        with np.errstate(divide="ignore", invalid="ignore"):
-            d = np.sin(0.5 * n * y) / (n * np.tan(0.5 * y))
-        d[np.abs(np.sin(0.5 * y)) < 1e-14] = 1.0
-        _UPSAMPLING.clear()
-        _UPSAMPLING[key] = d.reshape(up * n, SYM, m).sum(axis=1)
-    return _UPSAMPLING[key]
-
-
-_UPSAMPLING = {}
+    quarters.  Depends on (n, up) only: the last one is kept."""
+    x = 2 * math.pi * np.arange(up * n) / (up * n)
+    y = x[:, None] - 2 * math.pi * np.arange(n)[None, :] / n
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d = np.sin(0.5 * n * y) / (n * np.tan(0.5 * y))
+    d[np.abs(np.sin(0.5 * y)) < 1e-14] = 1.0
+    return d.reshape(up * n, SYM, m).sum(axis=1)
 
 
 class Geometry:
@@ -630,13 +625,10 @@ def pair_gap(a, b, tol=1e-4):
     surfaces' largest distance (in L) and the tips' radius difference at
     their common surface times."""
     from .reference import curve_distance, tip_radius
-    ta, tb = a.pressure["t"], b.pressure["t"]
-    end = min(ta[-1], tb[-1])
-    sel = ta <= end + 1e-9
-    d = np.abs(a.pressure["p"][sel] - np.interp(ta[sel], tb, b.pressure["p"]))
-    d /= abs(a.pressure["p"][0])
+    end = min(a.pressure["t"][-1], b.pressure["t"][-1])
+    t, d = _p_gap(a, b, end)
     bad = np.nonzero(d > tol)[0]
-    within = float(end) if not len(bad) else float(ta[sel][max(bad[0] - 1, 0)])
+    within = float(end) if not len(bad) else float(t[max(bad[0] - 1, 0)])
     surf = {}
     for t in sorted(set(a.interface_times()) & set(b.interface_times())):
         ca, cb = a.interface(t), b.interface(t)
@@ -716,7 +708,7 @@ def study(dirs, echo=print, tol=1e-4):
         surf = [d for t, (d, _, _) in g["surfaces"].items() if float(t) <= until + 1e-9]
         res.update({"base": base.path, "converged_until": float(until),
                     "nodes": [coarse.setup.params.nodes, base.setup.params.nodes],
-                    "p_max": float(_p_max_until(coarse, base, until)),
+                    "p_max": float(_p_gap(coarse, base, until)[1].max()),
                     "surface_max": float(max(surf)) if surf else float("nan")})
         nxt, bp = coarse, base.setup.params
         echo(f"\nConverged (p_A within {100 * tol:g} % of |p_A(0)| and the surfaces within "
@@ -751,11 +743,12 @@ SURFACE_TOL = 1e-4      # the surfaces' bar for convergence, in L
 SURFACE_UPSAMPLE = 2    # points written per node on the surfaces
 
 
-def _p_max_until(a, b, until):
+def _p_gap(a, b, until):
+    """|p_A of a - p_A of b| in |p_A(0)| at a's times up to `until`: (t, d)."""
     t = a.pressure["t"]
     sel = t <= until + 1e-9
     d = np.abs(a.pressure["p"][sel] - np.interp(t[sel], b.pressure["t"], b.pressure["p"]))
-    return d.max() / abs(a.pressure["p"][0])
+    return t[sel], d / abs(a.pressure["p"][0])
 
 
 def ship(ref_dir, out_dir, res, study_text):

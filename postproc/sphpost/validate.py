@@ -595,6 +595,7 @@ def reference_section(w, case, ref, doc):
 def bem_section(w, ref):
     """The report's lines on the boundary-integral reference: its interval
     of convergence and Gerris against it."""
+    from . import reference
     b = ref["bem"]
     st = b.get("study", {})
     if st:
@@ -607,7 +608,7 @@ def bem_section(w, ref):
     g = b.get("gerris")
     if g:
         w(f"Gerris's finest level ({g['label']}, `{os.path.relpath(g['path'], ROOT)}`) "
-          f"against it over [{0.1:g}, {g['end']:.3g}]: p_A mean |difference| "
+          f"against it over [{reference.TRIM:g}, {g['end']:.3g}]: p_A mean |difference| "
           f"{sig(g['p_mean'])} %, largest {sig(g['p_max'])} %, signed mean "
           f"{100 * g['p_bias']:+.3f} % of |p_A(0)| ("
           + ", ".join(f"{100 * v:+.2f} % at t omega = {k}" for k, v in g["p_at"].items())
