@@ -11,7 +11,7 @@ at the table's times are the solver's own time-series values (timeseries.csv);
 
 The run is one of ours (a run directory) or another code's output, one file
 per output time: the plain format (CSV or .npz), VTK (.vtk, .vtu, .vtp) or
-PySPH's dumps (doc/reference/postproc.md, "Other codes' runs"); its case is --case and
+PySPH's dumps (doc/reference/other-codes.md); its case is --case and
 its units --length, --rate, --v0, --rho.
 
 Example:

@@ -1,7 +1,7 @@
 """sphpost.foreign: other particle codes' output read as runs.
 
 A foreign run is a directory (or a glob pattern) of one file per output
-time in one of three formats (doc/reference/postproc.md, "Other codes' runs"):
+time in one of three formats (doc/reference/other-codes.md):
 
   plain   CSV or .npz with the columns id, x, y[, z], u, v[, w], p[, rho, m],
           the time in a '# time = T' line (CSV), a 'time' entry (.npz) or
@@ -69,7 +69,7 @@ UNIT_TOLERANCE = 30.0           # a scale this far off is a wrong unit, not a ba
 def add_options(ap):
     """The options that describe a foreign run (doc/reference/postproc.md); our own
     run directories need none of them."""
-    g = ap.add_argument_group("other codes' runs (doc/reference/postproc.md, 'Other codes' runs')")
+    g = ap.add_argument_group("other codes' runs (doc/reference/other-codes.md)")
     g.add_argument("--case", choices=tuple(CASES),
                    help="the prototype problem of a run that is not ours (required for it)")
     g.add_argument("--format", choices=FORMATS,
