@@ -67,7 +67,7 @@ UNIT_TOLERANCE = 30.0           # a scale this far off is a wrong unit, not a ba
 
 
 def add_options(ap):
-    """The options that describe a foreign run (doc/reference/postproc.md); our own
+    """The options that describe a foreign run (doc/reference/other-codes.md); our own
     run directories need none of them."""
     g = ap.add_argument_group("other codes' runs (doc/reference/other-codes.md)")
     g.add_argument("--case", choices=tuple(CASES),
@@ -123,7 +123,7 @@ def open_run(path, args):
             if fmt is None and os.path.isdir(path):
                 raise PostprocError(f"{e}; for another code's output give --case circle2d, "
                                     "ellipsoid3d, square_rotation or square_vortical "
-                                    "(doc/reference/postproc.md)")
+                                    "(doc/reference/other-codes.md)")
             raise
         if case and case != run.case.name:
             raise PostprocError(f"'{path}' is a {run.case.name} run, not {case}")

@@ -39,7 +39,7 @@ def report(*args):
 # ---------------------------------------------------------------------------
 
 def write_plain_csv(d, frames, ids=True, time_in="header"):
-    """The plain format as doc/reference/postproc.md specifies it."""
+    """The plain format as doc/reference/other-codes.md specifies it."""
     d.mkdir(parents=True, exist_ok=True)
     for k, f in enumerate(frames):
         dim = f["x"].shape[1]

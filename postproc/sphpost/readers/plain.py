@@ -1,5 +1,5 @@
 """sphpost.readers.plain: the plain format, CSV or .npz with the columns
-id, x, y[, z], u, v[, w], p[, rho, m] (doc/reference/postproc.md)."""
+id, x, y[, z], u, v[, w], p[, rho, m] (doc/reference/other-codes.md)."""
 import re
 
 import numpy as np
