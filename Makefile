@@ -42,10 +42,12 @@ LDLIBS   := -L$(HDF5_LIB) -Wl,-rpath,$(HDF5_LIB) -lhdf5_fortran -lhdf5 -lfftw3 -
 # EXCLUDE (file names without extension or folder) leaves work in progress
 # out of a build, e.g. EXCLUDE=test_eos a unit-test suite.
 EXCLUDE   ?=
-# (*.F90: sources the C preprocessor expands first, e.g. the particle fields)
-SRC_DIRS  := $(patsubst %/,%,$(sort $(dir $(wildcard src/*/*.f90 src/*/*.F90))))
-SRC       := $(filter-out $(foreach e,$(EXCLUDE),%/$(e).f90 %/$(e).F90),\
-                          $(wildcard src/*/*.f90 src/*/*.F90))
+# (*.F90: sources the C preprocessor expands first, e.g. the particle fields;
+# *.fypp: modules fypp generates into $(BUILD)/*.f90 first, e.g. the
+# specialised pair loops; *.fypi: fypp text they include)
+SRC_DIRS  := $(patsubst %/,%,$(sort $(dir $(wildcard src/*/*.f90 src/*/*.F90 src/*/*.fypp))))
+SRC       := $(filter-out $(foreach e,$(EXCLUDE),%/$(e).f90 %/$(e).F90 %/$(e).fypp),\
+                          $(wildcard src/*/*.f90 src/*/*.F90 src/*/*.fypp))
 LIB_SRC   := $(filter-out %/main.f90,$(SRC))
 SUITES    := $(filter-out $(patsubst test_%,%,$(EXCLUDE)),\
                $(patsubst tests/unit/test_%.pf,%,$(wildcard tests/unit/test_*.pf)))
@@ -56,6 +58,13 @@ LIB_OBJ   := $(sort $(addprefix $(BUILD)/,$(addsuffix .o,$(basename $(notdir $(L
 
 vpath %.f90 $(SRC_DIRS) tests
 vpath %.F90 $(SRC_DIRS)
+vpath %.fypp $(SRC_DIRS)
+
+# fypp (Debian: fypp) expands a .fypp module into $(BUILD)/<name>.f90, with
+# the source's folder on its include path
+FYPP      ?= fypp
+FYPP_SRC  := $(filter %.fypp,$(SRC))
+FYPP_F90  := $(addprefix $(BUILD)/,$(notdir $(FYPP_SRC:.fypp=.f90)))
 
 .PHONY: validate-squares all sph debug asan test unit bench bench-pairloop decomp-study validate validate-long reference reference-bem input-doc clean
 all: sph
@@ -73,6 +82,12 @@ $(BUILD)/%.o: %.f90 | $(BUILD)
 $(BUILD)/%.o: %.F90 | $(BUILD)
 	$(FC) $(FFLAGS) -c $< -o $@
 
+$(FYPP_F90): $(BUILD)/%.f90: %.fypp | $(BUILD)
+	$(FYPP) -I $(dir $<) $< $@.tmp && mv -f $@.tmp $@
+
+$(FYPP_F90:.f90=.o): $(BUILD)/%.o: $(BUILD)/%.f90
+	$(FC) $(FFLAGS) -c $< -o $@
+
 $(BUILD):
 	mkdir -p $@
 
@@ -88,11 +103,12 @@ $(BUILD)/deps.mk: $(DEP_SRC) | $(BUILD)
 	  case $$f in *.pf) o="$(PF2F90)/$$b.o $(PFB)/$$b.o";; *) o=$(BUILD)/$$b.o;; esac; \
 	  for m in $$(sed -nE 's/^[[:space:]]*use[[:space:]]*(,[[:space:]]*non_intrinsic[[:space:]]*::)?[[:space:]]*([A-Za-z0-9_]+).*/\2/Ip' $$f | tr A-Z a-z | sort -u); do \
 	    for d in $(SRC_DIRS) tests; do \
-	      if [ -f $$d/$$m.f90 -o -f $$d/$$m.F90 ] && [ $$m != $$b ]; then echo "$$o: $(BUILD)/$$m.o"; fi; \
+	      if [ -f $$d/$$m.f90 -o -f $$d/$$m.F90 -o -f $$d/$$m.fypp ] && [ $$m != $$b ]; then echo "$$o: $(BUILD)/$$m.o"; fi; \
 	    done; \
 	  done; \
-	  for i in $$(sed -nE "s/^[[:space:]]*#?[[:space:]]*include[[:space:]]*['\"]([^'\"]+)['\"].*/\1/Ip" $$f | sort -u); do \
-	    if [ -f $$(dirname $$f)/$$i ]; then echo "$$o: $$(dirname $$f)/$$i"; fi; \
+	  case $$f in *.fypp) t=$(BUILD)/$$b.f90;; *) t=$$o;; esac; \
+	  for i in $$(sed -nE "s/^[[:space:]]*#?:?[[:space:]]*include[[:space:]]*['\"]([^'\"]+)['\"].*/\1/Ip" $$f | sort -u); do \
+	    if [ -f $$(dirname $$f)/$$i ]; then echo "$$t: $$(dirname $$f)/$$i"; fi; \
 	  done; \
 	done > $@
 -include $(BUILD)/deps.mk

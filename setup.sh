@@ -6,7 +6,7 @@
 set -euo pipefail
 cd "$(dirname "$0")"
 
-PACKAGES="make pkg-config gfortran openmpi-bin libopenmpi-dev libhdf5-openmpi-dev hdf5-tools \
+PACKAGES="make pkg-config fypp gfortran openmpi-bin libopenmpi-dev libhdf5-openmpi-dev hdf5-tools \
 libfftw3-dev libmetis-dev python3-numpy python3-h5py python3-matplotlib python3-scipy \
 python3-pyfftw python3-pytest python3-vtk9 python3-venv gerris libgfs-dev"
 
