@@ -39,7 +39,6 @@ contains
             'radius R of the initial disc'), &
       var_t(0, 'a0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
             'A0: initial velocity u = -A0 x, v = A0 y')]
-    if (.false.) vars(1)%help = self%help
   end function circle2d_vars
 
   subroutine circle2d_read_group(self, text, ios, iomsg)
@@ -64,8 +63,10 @@ contains
     select case (name)
     case ('radius')
       text = real_str(self%radius)
-    case default
+    case ('a0')
       text = real_str(self%a0)
+    case default
+      error stop 'circle2d: no variable ' // name
     end select
   end function circle2d_value_text
 

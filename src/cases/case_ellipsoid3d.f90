@@ -54,7 +54,6 @@ contains
                 '[solutions](../theory/solutions.md)): without it the falling centre pressure ' // &
                 'rings the lowest acoustic mode (6-8 % of P(0) at c0 = 10); ' // &
                 'input/ellipsoid3d.nml sets it')]
-    if (.false.) vars(1)%help = self%help
   end function ellipsoid3d_vars
 
   subroutine ellipsoid3d_read_group(self, text, ios, iomsg)
@@ -88,8 +87,10 @@ contains
       text = real_str(self%a0)
     case ('rates')
       text = real_list(self%rates)
-    case default
+    case ('prepared')
       text = trim(merge('.true. ', '.false.', self%prepared))
+    case default
+      error stop 'ellipsoid3d: no variable ' // name
     end select
   end function ellipsoid3d_value_text
 
