@@ -72,8 +72,8 @@ module input_params
   type(var_t), parameter :: GENERIC_VARS(*) = [ &
     var_t(G_RUN, 'case', T_STRING, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_CASE, '', &
           'the test case; its own group sets its geometry', &
-          doc='the test case. Its own group (`&circle2d`, `&ellipsoid3d`, ' // &
-              '`&square_rotation`, `&square_vortical`) sets its geometry and initial flow'), &
+          doc='the test case. Its own group, of the same name (`&circle2d` for ' // &
+              '`circle2d`), sets its geometry and initial flow'), &
     var_t(G_RUN, 't_end', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
           'end time (read as t A0 with the non-dimensional defaults)'), &
     var_t(G_RUN, 'max_steps', T_INT, SCALAR, LO_GE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
