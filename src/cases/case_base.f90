@@ -10,8 +10,9 @@
 !> rest has defaults here for a case that adds nothing: no rules between its
 !> variables, no packing, no columns, the solver's free-surface indicator
 !> (and vorticity in 2D) as its snapshot fields, no summary.  The defaults
-!> ignore the arguments an override uses: the Makefile compiles this file
-!> alone with -Wno-unused-dummy-argument.
+!> ignore the arguments an override uses, as a case may ignore what it does
+!> not need: the Makefile compiles src/cases/case_*.f90 without the
+!> unused-argument warning.
 module case_base
   use kinds, only: wp, i8
   use input_var, only: var_t

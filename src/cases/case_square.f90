@@ -29,6 +29,7 @@ module case_square
   use input_params, only: particles_params_t, physics_params_t
   use kernels, only: kernel_t
   use particles, only: particles_t, particles_allocate
+  use placement, only: place_square
   use eos, only: eos_t, eos_density
   use poisson_square, only: poisson_square_t, poisson_square_solve, poisson_square_eval, &
                             POISSON_DEFAULT_N
@@ -133,14 +134,14 @@ contains
     real(wp), intent(out) :: dx
     integer, intent(in) :: share(2)
     type(poisson_square_t) :: ps
+    real(wp), allocatable :: xl(:, :)
     real(wp) :: x, y, p, xr(2)
     integer :: i, j, id, s(2, 2)
     self%dim = 2
     self%rho0 = physics%rho0
     self%c0 = physics%c0
     associate(l => self%side, ns => self%n_side)
-    ns = max(4, nint(sqrt(real(particles%n, wp))))
-    dx = l / ns
+    call place_square(l, particles%n, xl, dx, ns)
     self%dx = dx
     self%n_global = ns**2
 
@@ -158,10 +159,9 @@ contains
     do j = 1, ns
       do i = 1, ns
         id = i + (j - 1) * ns
-        ! centred on the origin, so that -x and -y are lattice points exactly
-        x = (i - 0.5_wp * (ns + 1)) * dx
-        y = (j - 0.5_wp * (ns + 1)) * dx
-        parts%x(:, id) = [x, y, 0.0_wp]
+        x = xl(1, id)
+        y = xl(2, id)
+        parts%x(:, id) = xl(:, id)
         parts%x0(:, id) = parts%x(:, id)
         parts%u(:, id) = self%initial_velocity(x, y)
         self%partner(id) = (s(1, 1) * (2 * i - ns - 1) + s(1, 2) * (2 * j - ns - 1) + ns + 1) / 2 &
