@@ -146,6 +146,12 @@ class CaseInfo:
         return self.family == "square"
 
     @property
+    def rate_label(self):
+        """The rate's name, the unit of frequencies: 'A0' of 't A0'; a case
+        without scales has none."""
+        return self.time_label[2:] if self.time_label.startswith("t ") else "per unit time"
+
+    @property
     def c0_scaled(self):
         """c0 in the case's speed scale: c0 / (A0 R), c0 / (omega L), c0 / V0,
         whatever units the run's files use."""
