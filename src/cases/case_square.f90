@@ -150,8 +150,7 @@ contains
     self%p_centre0 = poisson_square_eval(ps, 0.0_wp, 0.0_wp)
     self%p_quarter0 = poisson_square_eval(ps, 0.25_wp * l, 0.25_wp * l)
 
-    ! the lattice; S maps particle (i, j) onto its partner: the lattice
-    ! index 2 i - ns - 1 is proportional to x, so S maps indices exactly
+    ! the lattice; S maps particle (i, j) onto its partner
     call particles_allocate(parts, 2, ns**2)
     parts%n = ns**2
     allocate(self%partner(ns**2))
@@ -164,8 +163,7 @@ contains
         parts%x(:, id) = xl(:, id)
         parts%x0(:, id) = parts%x(:, id)
         parts%u(:, id) = self%initial_velocity(x, y)
-        self%partner(id) = (s(1, 1) * (2 * i - ns - 1) + s(1, 2) * (2 * j - ns - 1) + ns + 1) / 2 &
-                    + ((s(2, 1) * (2 * i - ns - 1) + s(2, 2) * (2 * j - ns - 1) + ns + 1) / 2 - 1) * ns
+        self%partner(id) = image_id(s, i, j, ns)
         ! the same value on every point of an orbit of S (p is symmetric
         ! but its series, summed at different points, not to the last bit)
         xr = orbit_representative(self%sym, [x, y])
@@ -188,6 +186,16 @@ contains
     ! particles): the share is kept afterwards
     call keep_share(parts, share)
   end subroutine square_setup
+
+  !> The id of the lattice point S x of point (i, j) of the n_side^2
+  !> lattice: its index 2 i - n_side - 1 is proportional to x, so that S
+  !> (entries 0 and +-1) maps indices exactly.
+  pure integer function image_id(s, i, j, n_side)
+    integer, intent(in) :: s(2, 2), i, j, n_side
+    integer :: k(2)
+    k = (matmul(s, [2 * i - n_side - 1, 2 * j - n_side - 1]) + n_side + 1) / 2
+    image_id = k(1) + (k(2) - 1) * n_side
+  end function image_id
 
   !> The point of the orbit {x, S x, S^2 x, ...} of x under the symmetry S
   !> (entries 0 and +-1: exact) that is largest in (x, then y).
