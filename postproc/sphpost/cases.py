@@ -26,7 +26,7 @@ names of its flow rate, its length and its speed scale (rate x length), the
 shipped input's c0 in that speed scale, the probe (in units of the length),
 how times are written, its family ('stretching' or 'square'), scales(group,
 rho0, c0, notes) -> dict of CaseInfo's length, rate, p_unit, p_unit_label,
-f_acoustic and rates from its input group, and exact(info, x, y) -> (the
+f_acoustic, rates and volume from its input group, and exact(info, x, y) -> (the
 exact initial pressure at (x, y), the exact kinetic energy), or None."""
 
 
@@ -42,7 +42,8 @@ def _number(group, names, default, notes, what):
 def _circle2d(g, rho0, c0, notes):
     r, a0 = float(g.get("radius", 1.0)), float(g.get("a0", 1.0))
     return dict(length=r, rate=a0, p_unit=rho0 * a0**2 * r**2, p_unit_label="rho A0^2 R^2",
-                f_acoustic=J0_ZERO * c0 / (2 * math.pi * r), rates=(-a0, a0))
+                f_acoustic=J0_ZERO * c0 / (2 * math.pi * r), rates=(-a0, a0),
+                volume=math.pi * r**2)
 
 
 def _ellipsoid3d(g, rho0, c0, notes):
@@ -50,21 +51,22 @@ def _ellipsoid3d(g, rho0, c0, notes):
     rates = g.get("rates", [-1.0, -1.0, 2.0])
     rates = tuple(a0 * float(x) for x in (rates if isinstance(rates, (list, tuple)) else [rates]))
     return dict(length=r, rate=a0, p_unit=rho0 * a0**2 * r**2, p_unit_label="rho A0^2 R^2",
-                f_acoustic=c0 / (2 * r), rates=rates)
+                f_acoustic=c0 / (2 * r), rates=rates, volume=4 / 3 * math.pi * r**3)
 
 
 def _square_rotation(g, rho0, c0, notes):
     side = _number(g, ("side", "l", "length"), 1.0, notes, "square_rotation side")
     omega = _number(g, ("omega",), 1.0, notes, "square_rotation omega")
     return dict(length=side, rate=omega, p_unit=rho0 * omega**2 * side**2,
-                p_unit_label="rho omega^2 L^2", f_acoustic=c0 / (math.sqrt(2) * side))
+                p_unit_label="rho omega^2 L^2", f_acoustic=c0 / (math.sqrt(2) * side),
+                volume=side**2)
 
 
 def _square_vortical(g, rho0, c0, notes):
     side = _number(g, ("side", "l", "length"), 1.0, notes, "square_vortical side")
     v0 = _number(g, ("v0",), 1.0, notes, "square_vortical v0")
     return dict(length=side, rate=v0 / side, p_unit=rho0 * v0**2, p_unit_label="rho V0^2",
-                f_acoustic=c0 / (math.sqrt(2) * side))
+                f_acoustic=c0 / (math.sqrt(2) * side), volume=side**2)
 
 
 def _rotation_exact(c, x, y):
@@ -121,7 +123,7 @@ class CaseInfo:
     units         a foreign run's unit options as given or assumed
                   ('--length 1 --rate 100 ...'), empty for our runs
     family        'stretching', 'square', or None for a case not in CASES
-    volume        the initial patch's area (volume) when known, else None:
+    volume        the initial patch's area (volume), None when not known:
                   patch_volume
     """
 
@@ -171,10 +173,7 @@ def patch_volume(case):
     (ellipsoid3d) or area L^2 (squares); the flows keep it.  A case not in
     CASES: its volume when the run has told it (Run: the first snapshot's
     Sum m/rho), else None."""
-    if case.name not in CASES:
-        return case.volume
-    return {"circle2d": math.pi * case.length**2,
-            "ellipsoid3d": 4 / 3 * math.pi * case.length**3}.get(case.name, case.length**2)
+    return case.volume
 
 
 def resolution_scale(nml, dim):
@@ -218,6 +217,8 @@ def case_info(nml, case=None, dim=None):
         return CaseInfo(name, d, rho0, c0, 1.0, 1.0, "t", rho0 * c0**2, "rho0 c0^2",
                         c0 / 2, notes)
     sc = entry.scales(nml.get(name, {}), rho0, c0, notes)
-    return CaseInfo(name, d, rho0, c0, sc["length"], sc["rate"], entry.time_label,
-                    sc["p_unit"], sc["p_unit_label"], sc["f_acoustic"], notes,
-                    rates=sc.get("rates"))
+    c = CaseInfo(name, d, rho0, c0, sc["length"], sc["rate"], entry.time_label,
+                 sc["p_unit"], sc["p_unit_label"], sc["f_acoustic"], notes,
+                 rates=sc.get("rates"))
+    c.volume = sc["volume"]
+    return c
