@@ -16,7 +16,7 @@
 module packing
   use kinds, only: wp, i8, pi
   use kernels, only: kernel_t, kernel_w, kernel_f_list, kernel_w_list
-  use fluid_rhs, only: row_capacity
+  use pair_rows, only: row_capacity
   use neighbours, only: neighbour_list_t, neighbour_row
   use solver, only: solver_t, solver_rebuild
   use decomposition, only: decomp_refresh

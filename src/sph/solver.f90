@@ -11,7 +11,8 @@ module solver
   use list_manager, only: list_manager_t, list_radius, list_check, list_build, list_pair_work, &
                           list_origin
   use eos, only: eos_t, eos_pressure
-  use fluid_rhs, only: rhs_params_t, rhs_work_t, rhs_renormalisation, rhs_evaluate, rhs_shift, &
+  use pair_rows, only: rhs_work_t
+  use fluid_rhs, only: rhs_params_t, rhs_renormalisation, rhs_evaluate, rhs_shift, &
                        rhs_strain_rate, rhs_reconstructs, DIFF_ANTUONO, DIFF_NONE, VISC_NONE, &
                        PGRAD_HIGHER_ORDER, PGRAD_RENORMALISED, DIV_RENORMALISED
   use parallel_env, only: parallel_env_t, par_max, wall_time
