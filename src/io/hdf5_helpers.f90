@@ -1,13 +1,13 @@
 !> The HDF5 calls of the snapshots, apart from what a snapshot holds: a file
 !> opened for collective I/O, this rank's block of rows of a dataset written
-!> or read collectively, scalar root attributes, and the shapes and names
-!> of what a file holds.
+!> or read collectively, scalar attributes, and the shapes and names of
+!> what a file holds.
 !>
 !> A dataset of ncomp components is (N) when ncomp = 1, else (ncomp, N) in
 !> Fortran order (h5py sees (N, ncomp)); rank r writes or reads its rows
-!> offset+1 .. offset+n_local.  Every function returns false with errmsg set
-!> on failure and closes what it opened; HDF5's own error stack is the
-!> caller's to silence.
+!> offset+1 .. offset+n_local.  A function with an errmsg returns false
+!> with errmsg set on failure; each closes what it opened.  HDF5's own
+!> error stack is the caller's to silence.
 module hdf5_helpers
   use, intrinsic :: iso_c_binding, only: c_ptr, c_loc, c_char
   use kinds, only: wp, i8
