@@ -10,11 +10,25 @@ module pair_rows
   private
   public :: LANES, N_ROWBUF, rhs_work_t, rhs_work_reserve, sums_view, row_capacity, &
             bin_anchors
+  public :: R_UX, R_UY, R_UZ, R_RHO, R_P, R_VOL, R_IRHO, R_PF, R_WC, R_LXX, R_LYY, R_LZZ, &
+            R_LXY, R_LXZ, R_LYZ, R_RT, R_SXX, R_SYY, R_SZZ, R_SXY, R_SXZ, R_SYZ, REC_SHORT, &
+            REC_LONG, REC_RECON
 
   !> the partial sums of a row (lane_sums): a vector of doubles on AVX-512
   integer, parameter :: LANES = 8
   !> the row buffers of the pair loops (rhs_work_t%rb)
   integer, parameter :: N_ROWBUF = 14
+  !> rhs_work_t%rec(:, j): what the pair loop reads of a partner j, in one
+  !> place (two cache lines): u, rho, p, V, 1/rho, the pressure and weight
+  !> of (H1), L (E3, as xx, yy, zz, xy, xz, yz) and R of (E7); the standard
+  !> operators read only the first REC_SHORT (one cache line); (R1) the
+  !> reconstructed viscosity adds the strain rate S
+  integer, parameter :: R_UX = 1, R_UY = 2, R_UZ = 3, R_RHO = 4, R_P = 5, R_VOL = 6, &
+                        R_IRHO = 7, R_PF = 8, R_WC = 9, &
+                        R_LXX = 10, R_LYY = 11, R_LZZ = 12, R_LXY = 13, R_LXZ = 14, R_LYZ = 15, &
+                        R_RT = 16, &
+                        R_SXX = 17, R_SYY = 18, R_SZZ = 19, R_SXY = 20, R_SXZ = 21, R_SYZ = 22
+  integer, parameter :: REC_SHORT = R_PF, REC_LONG = R_RT, REC_RECON = 24
 
   !> Work arrays of the passes, kept between calls (the solver holds one)
   !> and grown only when the particles or the longest row outgrow them, so
