@@ -254,7 +254,8 @@ contains
     real(wp) :: vol
     integer :: n
     n = parts%n
-    w = plane_weights(parts%x(:, 1:n), problem%mirror)
+    allocate(w(n))
+    w(:) = plane_weights(parts%x(:, 1:n), problem%mirror)
     ! (the weights are multiples of 1/8: their sum is exact in any order)
     vol = packed_volume(parts%dim, problem%pack_radius, 1_i8) / &
           (par_sum(env, sum(w)) * mirror_copies(problem%mirror))
