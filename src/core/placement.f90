@@ -5,7 +5,7 @@
 !> (k - 1/2) dx, k = 1..K with K dx = R, each evenly filled; every particle
 !> gets the area (volume) of its ring divided by the ring's count, so the
 !> volumes add up to the body's exactly.  It survives strong stretching
-!> where a clipped lattice fails (doc/theory/, "Measurements the defaults rest on").
+!> where a clipped lattice fails (doc/studies/numerics.md, "The plain scheme on circle2d").
 !> 'lattice': a square (cubic) lattice of spacing dx clipped to the body,
 !> each particle with volume dx^dim.
 !> 'packed': the first guess of the packing (doc/theory/packing.md): the clipped
