@@ -959,14 +959,15 @@ def check_case(c, s):
 
 
 def series_against(c, ref, t, p, t_ke, ke, fc=None, transition=sp.DEFAULT_TRANSITION,
-                   until=None):
+                   until=None, span=None):
     """A run's probe pressure p(t) and kinetic energy ke(t_ke) (in the run's
     units; c its CaseInfo) against a Reference: the probe pressure's mean
     |difference| raw and low-pass filtered (over the whole common interval
     where both probes are in the fluid, and over WINDOWS), in |p(0)| of the
     series, and the mean |difference| of the kinetic energy's relative
     change; with `until`, the filtered pressure over [TRIM, until] as well
-    (p_until_*: where the reference has converged).  Returns the numbers and
+    (p_until_*: where the reference has converged), with `span` (a, b) over
+    [a, b] within it (p_span_*).  Returns the numbers and
     the interval's end (in the case's time)."""
     s = ref.setup
     check_case(c, s)
@@ -997,16 +998,19 @@ def series_against(c, ref, t, p, t_ke, ke, fc=None, transition=sp.DEFAULT_TRANSI
                                  for w in WINDOWS[s.case] if w < end}
     # away from the filter's ends: [TRIM, end - TRIM], the signed mean too
     # (the paper's "mean evolution slightly lower")
-    def window(name, hi):
-        part = (tf >= TRIM - 1e-9) & (tf <= hi + 1e-9)
+    def window(name, lo, hi):
+        part = (tf >= lo - 1e-9) & (tf <= hi + 1e-9)
         if part.sum() >= 2:
             d = (pf - pr)[part]
-            out.update({name: (TRIM, float(hi)), f"{name}_mean": float(np.mean(np.abs(d)) / p0),
+            out.update({name: (float(lo), float(hi)),
+                        f"{name}_mean": float(np.mean(np.abs(d)) / p0),
                         f"{name}_max": float(np.max(np.abs(d)) / p0),
                         f"{name}_bias": float(np.mean(d) / p0)})
-    window("p_trim", end - TRIM)
+    window("p_trim", TRIM, end - TRIM)
     if until is not None:
-        window("p_until", min(until, end - TRIM))
+        window("p_until", TRIM, min(until, end - TRIM))
+    if span is not None:
+        window("p_span", max(span[0], TRIM), min(span[1], end - TRIM))
     tk = np.asarray(t_ke, dtype=float) / tu
     kel = tk <= min(tk[-1], ref.integrals["t"][-1]) + 1e-9
     ke = np.asarray(ke, dtype=float)[kel]
@@ -1017,10 +1021,11 @@ def series_against(c, ref, t, p, t_ke, ke, fc=None, transition=sp.DEFAULT_TRANSI
 
 
 def compare(run_dir, ref_dir, echo=print, fc=None, transition=sp.DEFAULT_TRANSITION,
-            until=None):
+            until=None, span=None):
     """An sph run of a square patch against a reference: the probe pressure
-    raw and filtered, the kinetic energy's change, the free surface at the
-    interface times and the first cavity.  Returns the numbers."""
+    raw and filtered (with span (a, b), also over that window of time), the
+    kinetic energy's change, the free surface at the interface times and the
+    first cavity.  Returns the numbers."""
     run = sp.Run(run_dir)
     ref = Reference(ref_dir)
     s = ref.setup
@@ -1028,7 +1033,8 @@ def compare(run_dir, ref_dir, echo=print, fc=None, transition=sp.DEFAULT_TRANSIT
     tu = s.time_unit
     t = run.time / tu
     out, end = series_against(c, ref, run.time, run.column(probe_column(run, s.probe)),
-                              run.time, run.column("kinetic_energy"), fc, transition, until)
+                              run.time, run.column("kinetic_energy"), fc, transition, until,
+                              span)
     n = run.n_particles
     dx = s.side / math.sqrt(n)
     h = float(run.nml.get("particles", {}).get("h_over_dx", 2.0)) * dx
@@ -1061,6 +1067,11 @@ def compare(run_dir, ref_dir, echo=print, fc=None, transition=sp.DEFAULT_TRANSIT
         echo(f"  filtered over [{a:g}, {b:.3g}]: mean |difference| {100 * out['p_trim_mean']:.3f} "
              f"%, largest {100 * out['p_trim_max']:.3f} %, mean difference (run - reference) "
              f"{100 * out['p_trim_bias']:+.3f} %")
+    if "p_span_mean" in out:
+        a, b = out["p_span"]
+        echo(f"  filtered over [{a:g}, {b:.3g}] (--window): mean |difference| "
+             f"{100 * out['p_span_mean']:.3f} %, largest {100 * out['p_span_max']:.3f} %, mean "
+             f"difference (run - reference) {100 * out['p_span_bias']:+.3f} %")
     for tk, (dm, dmax) in out["interface"].items():
         echo(f"  free surface at {tl} = {tk}: mean distance {dm:.4f} L ({dm / dx * s.side:.2f} "
              f"dx), largest {dmax:.4f} L; arm tips' radius {out['tip'][tk]:+.4f} L")
@@ -1187,6 +1198,9 @@ def command(argv, prog="postproc/reference"):
     cp.add_argument("run", help="the sph run directory")
     cp.add_argument("dir", help="the reference run directory")
     cp.add_argument("--json", help="also write the numbers to this file")
+    cp.add_argument("--window", nargs=2, type=float, metavar=("A", "B"),
+                    help="also the filtered probe pressure's difference over [A, B] "
+                         "(in the case's time), within the interval compared")
     pl = sub.add_parser("plot", help="a figure of sph runs against references")
     pl.add_argument("runs", nargs="*", help="sph run directories")
     pl.add_argument("--ref", nargs="+", required=True, help="reference run directories")
@@ -1278,7 +1292,8 @@ def command(argv, prog="postproc/reference"):
     elif args.verb == "plot":
         figure(args.runs, args.ref, args.output, args.labels)
     elif args.verb in ("study", "compare"):
-        res = study(args.dirs) if args.verb == "study" else compare(args.run, args.dir)
+        res = study(args.dirs) if args.verb == "study" else compare(args.run, args.dir,
+                                                                     span=args.window)
         if args.json:
             with open(args.json, "w") as f:
                 json.dump(res, f, indent=1)

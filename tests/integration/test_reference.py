@@ -282,6 +282,15 @@ def test_figure_3_of_a_foreign_run_with_the_reference_interface(tmp_path):
                    lambda t: 1 / 12 + 0 * t)
     c = ref.compare(str(tmp_path / "run"), str(tmp_path / "short"), echo=lambda m: None)
     assert c["interface"] == {} and c["p_interval_end"] == 0.5
+    # --window: the trimmed interval itself gives the trimmed numbers, a
+    # window is clipped to it, and a part of it gives its own
+    w = ref.compare(str(tmp_path / "run"), str(tmp_path / "ref"), echo=lambda m: None,
+                    span=(0.0, 9.0))
+    assert w["p_span"] == w["p_trim"] and w["p_span_mean"] == w["p_trim_mean"]
+    q = subprocess.run([str(ROOT / "postproc" / "reference"), "compare", str(tmp_path / "run"),
+                        str(tmp_path / "ref"), "--window", "0.2", "0.5"],
+                       capture_output=True, text=True, timeout=120)
+    assert q.returncode == 0 and "filtered over [0.2, 0.5] (--window)" in q.stdout, q.stdout
 
 
 def test_a_level_that_ended_early_is_not_the_finest(tmp_path):
