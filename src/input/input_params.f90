@@ -374,7 +374,8 @@ contains
   subroutine parallel_visit(p, v)
     class(parallel_params_t), intent(inout) :: p
     type(visit_t), intent(inout) :: v
-    call v%group('parallel', 'the domain decomposition across MPI ranks (doc/developer/parallel.md)')
+    call v%group('parallel', 'the domain decomposition across MPI ranks ' // &
+                 '(doc/developer/parallel.md)')
     call v%var('decomposition', p%decomposition, 'auto (slab up to 4 ranks, else sfc), ' // &
                'slab, METIS partition of cells, or sfc (pieces of a Hilbert curve)', &
                words=DECOMPOSITIONS, &
