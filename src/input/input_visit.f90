@@ -227,9 +227,9 @@ contains
   end subroutine var_logical
 
   !> words: the allowed words (a word-valued variable), else any string
-  !> (rule says what is allowed).  Read four times wider than x, then cut,
-  !> so that a value longer than x keeps x's last character for the checks
-  !> to see (output.dir), and gfortran does not warn of truncation.
+  !> (rule says what is allowed).  Read into a wider copy, then cut to x:
+  !> a string one character longer than allowed (output.dir) then shows a
+  !> value too long to the checks, whatever its length.
   subroutine var_string(v, name, x, help, words, rule, doc)
     class(visit_t), intent(inout) :: v
     character(len=*), intent(in) :: name, help
