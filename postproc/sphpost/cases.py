@@ -1,28 +1,94 @@
-"""sphpost.cases: the four prototype problems, under the solver's case
-names, with their scales and the lowest acoustic frequency (doc/theory/
-X6); their exact solutions are sphpost.exact.
+"""sphpost.cases: the solver's cases, under their names (&run case), with
+their scales, the lowest acoustic frequency (doc/theory/ X6) and, for those
+that have one, how to get their exact solution (sphpost.exact).
 
-CASES is the registry: for each case its dimension, the input group that
-holds its parameters, its flow rate and length, the default speed of sound
-of the shipped input (in the case's scale) and the probe point.  case_info
-turns a parsed input.nml (or a foreign run's options) into a CaseInfo.
+CASES is the registry of the cases with an exact solution: for each its
+dimension, the names of its rate and length, the shipped input's speed of
+sound (in the case's scale), the probe point, its family ("stretching": the
+errors against X1, "square": the initial pressure and kinetic energy of X3,
+X4) and two functions: `scales`, from its input group, and `exact`, its
+exact initial probe pressure and kinetic energy (squares).  A solver case
+not in it needs no entry: case_info gives it unit scales, and the tools
+report what a run of any case has (probe pressure, kinetic energy, free
+surface).  case_info turns a parsed input.nml (or a foreign run's options)
+into a CaseInfo.
 """
 import collections
 import math
 
+from . import exact as _exact
 from .exceptions import PostprocError
 
-Case = collections.namedtuple("Case", "name dim rate length speed c0 probe time_label")
+Case = collections.namedtuple("Case", "name dim rate length speed c0 probe time_label family "
+                                      "scales exact")
 Case.__doc__ = """A case of the registry: name (the solver's, &run case), dim, the
 names of its flow rate, its length and its speed scale (rate x length), the
-shipped input's c0 in that speed scale, the probe (in units of the length)
-and how times are written."""
+shipped input's c0 in that speed scale, the probe (in units of the length),
+how times are written, its family ('stretching' or 'square'), scales(group,
+rho0, c0, notes) -> dict of CaseInfo's length, rate, p_unit, p_unit_label,
+f_acoustic, rates and volume from its input group, and exact(info, x, y) -> (the
+exact initial pressure at (x, y), the exact kinetic energy), or None."""
+
+
+def _number(group, names, default, notes, what):
+    """The first of names set in the input group, else default (noted)."""
+    for n in names:
+        if n in group:
+            return float(group[n])
+    notes.append(f"{what} not found in input.nml; assumed {default}")
+    return default
+
+
+def _circle2d(g, rho0, c0, notes):
+    r, a0 = float(g.get("radius", 1.0)), float(g.get("a0", 1.0))
+    return dict(length=r, rate=a0, p_unit=rho0 * a0**2 * r**2, p_unit_label="rho A0^2 R^2",
+                f_acoustic=J0_ZERO * c0 / (2 * math.pi * r), rates=(-a0, a0),
+                volume=math.pi * r**2)
+
+
+def _ellipsoid3d(g, rho0, c0, notes):
+    r, a0 = float(g.get("radius", 1.0)), float(g.get("a0", 1.0))
+    rates = g.get("rates", [-1.0, -1.0, 2.0])
+    rates = tuple(a0 * float(x) for x in (rates if isinstance(rates, (list, tuple)) else [rates]))
+    return dict(length=r, rate=a0, p_unit=rho0 * a0**2 * r**2, p_unit_label="rho A0^2 R^2",
+                f_acoustic=c0 / (2 * r), rates=rates, volume=4 / 3 * math.pi * r**3)
+
+
+def _square_rotation(g, rho0, c0, notes):
+    side = _number(g, ("side", "l", "length"), 1.0, notes, "square_rotation side")
+    omega = _number(g, ("omega",), 1.0, notes, "square_rotation omega")
+    return dict(length=side, rate=omega, p_unit=rho0 * omega**2 * side**2,
+                p_unit_label="rho omega^2 L^2", f_acoustic=c0 / (math.sqrt(2) * side),
+                volume=side**2)
+
+
+def _square_vortical(g, rho0, c0, notes):
+    side = _number(g, ("side", "l", "length"), 1.0, notes, "square_vortical side")
+    v0 = _number(g, ("v0",), 1.0, notes, "square_vortical v0")
+    return dict(length=side, rate=v0 / side, p_unit=rho0 * v0**2, p_unit_label="rho V0^2",
+                f_acoustic=c0 / (math.sqrt(2) * side), volume=side**2)
+
+
+def _rotation_exact(c, x, y):
+    return (float(_exact.square_rotation_pressure(x, y, c.length, c.rate, c.rho0)[0]),
+            _exact.square_rotation_kinetic_energy(c.length, c.rate, c.rho0))
+
+
+def _vortical_exact(c, x, y):
+    v0 = c.rate * c.length
+    return (float(_exact.square_vortical_pressure(x, y, c.length, v0, c.rho0)[0]),
+            _exact.square_vortical_kinetic_energy(c.length, v0, c.rho0))
+
 
 CASES = {c.name: c for c in (
-    Case("circle2d", 2, "A0", "R", "A0 R", 10.0, (0.0, 0.0), "t A0"),
-    Case("ellipsoid3d", 3, "A0", "R", "A0 R", 10.0, (0.0, 0.0, 0.0), "t A0"),
-    Case("square_rotation", 2, "omega", "L", "omega L", 7.0, (0.0, 0.0), "t omega"),
-    Case("square_vortical", 2, "V0/L", "L", "V0", 14.0, (0.25, 0.25), "t V0/L"))}
+    Case("circle2d", 2, "A0", "R", "A0 R", 10.0, (0.0, 0.0), "t A0", "stretching",
+         _circle2d, None),
+    Case("ellipsoid3d", 3, "A0", "R", "A0 R", 10.0, (0.0, 0.0, 0.0), "t A0", "stretching",
+         _ellipsoid3d, None),
+    Case("square_rotation", 2, "omega", "L", "omega L", 7.0, (0.0, 0.0), "t omega", "square",
+         _square_rotation, _rotation_exact),
+    Case("square_vortical", 2, "V0/L", "L", "V0", 14.0, (0.25, 0.25), "t V0/L", "square",
+         _square_vortical, _vortical_exact))}
 
 # the probe of each case (the shipped inputs'): the centre, A for the
 # rotating square, (L/4, L/4) for the vortical one, in units of R or L
@@ -56,6 +122,9 @@ class CaseInfo:
     rates         the stretching cases' initial strain rates alpha_k(0) (A0 included)
     units         a foreign run's unit options as given or assumed
                   ('--length 1 --rate 100 ...'), empty for our runs
+    family        'stretching', 'square', or None for a case not in CASES
+    volume        the initial patch's area (volume), None when not known:
+                  patch_volume
     """
 
     def __init__(self, name, dim, rho0, c0, length, rate, time_label, p_unit,
@@ -67,14 +136,22 @@ class CaseInfo:
         self.f_acoustic = f_acoustic
         self.notes = list(notes)
         self.units = ""
+        self.family = CASES[name].family if name in CASES else None
+        self.volume = None
 
     @property
     def stretching(self):
-        return self.name in ("circle2d", "ellipsoid3d")
+        return self.family == "stretching"
 
     @property
     def square(self):
-        return self.name.startswith("square")
+        return self.family == "square"
+
+    @property
+    def rate_label(self):
+        """The rate's name, the unit of frequencies: 'A0' of 't A0'; a case
+        without scales has none."""
+        return self.time_label[2:] if self.time_label.startswith("t ") else "per unit time"
 
     @property
     def c0_scaled(self):
@@ -86,22 +163,17 @@ class CaseInfo:
     def c0_label(self):
         """'c0 = 14 A0 R': c0 in the case's scale, as figures and reports
         write it."""
+        if self.name not in CASES:
+            return f"c0 = {self.c0:g}"
         return f"c0 = {self.c0_scaled:g} {CASES[self.name].speed}"
 
 
 def patch_volume(case):
     """The initial patch's area pi R^2 (circle2d), volume 4/3 pi R^3
-    (ellipsoid3d) or area L^2 (squares); the flows keep it."""
-    return {"circle2d": math.pi * case.length**2,
-            "ellipsoid3d": 4 / 3 * math.pi * case.length**3}.get(case.name, case.length**2)
-
-
-def _pick(group, names, default, notes, what):
-    for n in names:
-        if n in group:
-            return float(group[n])
-    notes.append(f"{what} not found in input.nml; assumed {default}")
-    return default
+    (ellipsoid3d) or area L^2 (squares); the flows keep it.  A case not in
+    CASES: its volume when the run has told it (Run: the first snapshot's
+    Sum m/rho), else None."""
+    return case.volume
 
 
 def resolution_scale(nml, dim):
@@ -124,45 +196,29 @@ def scaled_input(nml, dim, group, name, exponent, default):
 
 def case_info(nml, case=None, dim=None):
     """CaseInfo from the parsed input.nml (nml may be {} when absent, then
-    the case name must be given, e.g. from a snapshot's attributes)."""
+    the case name must be given, e.g. from a snapshot's attributes).  A case
+    not in CASES gets unit length and time scales and p_unit rho0 c0^2; its
+    dimension is dim (from a snapshot's attributes), 2 if not given."""
     notes = []
     run = nml.get("run", {})
     name = (case or run.get("case") or "").lower()
+    if not name:
+        raise PostprocError("no case: give --case (the solver's run.case)")
+    entry = CASES.get(name)
+    d = entry.dim if entry else int(dim or 2)
     phys = nml.get("physics", {})
     rho0 = float(phys.get("rho0", 1.0))
-    c0 = scaled_input(nml, 3 if name == "ellipsoid3d" else 2, "physics", "c0", "c0_exponent",
-                      10.0)
+    c0 = scaled_input(nml, d, "physics", "c0", "c0_exponent", 10.0)
     if not nml:
         notes.append("no input.nml: assumed rho0 = 1, c0 = 10 and unit scales")
-    if name == "circle2d":
-        g = nml.get("circle2d", {})
-        r = float(g.get("radius", 1.0))
-        a0 = float(g.get("a0", 1.0))
-        return CaseInfo(name, 2, rho0, c0, r, a0, "t A0", rho0 * a0**2 * r**2,
-                        "rho A0^2 R^2", J0_ZERO * c0 / (2 * math.pi * r), notes,
-                        rates=(-a0, a0))
-    if name == "ellipsoid3d":
-        g = nml.get("ellipsoid3d", {})
-        r = float(g.get("radius", 1.0))
-        a0 = float(g.get("a0", 1.0))
-        rates = g.get("rates", [-1.0, -1.0, 2.0])
-        rates = tuple(a0 * float(x) for x in (rates if isinstance(rates, (list, tuple)) else [rates]))
-        return CaseInfo(name, 3, rho0, c0, r, a0, "t A0", rho0 * a0**2 * r**2,
-                        "rho A0^2 R^2", c0 / (2 * r), notes, rates=rates)
-    if name == "square_rotation":
-        # Variable names of issue 5's input/square_rotation.nml; the first
-        # one found is used.
-        g = nml.get("square_rotation", {})
-        side = _pick(g, ("side", "l", "length"), 1.0, notes, "square_rotation side")
-        omega = _pick(g, ("omega",), 1.0, notes, "square_rotation omega")
-        return CaseInfo(name, 2, rho0, c0, side, omega, "t omega",
-                        rho0 * omega**2 * side**2, "rho omega^2 L^2",
-                        c0 / (math.sqrt(2) * side), notes)
-    if name == "square_vortical":
-        g = nml.get("square_vortical", {})
-        side = _pick(g, ("side", "l", "length"), 1.0, notes, "square_vortical side")
-        v0 = _pick(g, ("v0",), 1.0, notes, "square_vortical v0")
-        return CaseInfo(name, 2, rho0, c0, side, v0 / side, "t V0/L", rho0 * v0**2,
-                        "rho V0^2", c0 / (math.sqrt(2) * side), notes)
-    raise PostprocError(f"unknown case '{name}': the post-processing knows circle2d, "
-                        "ellipsoid3d, square_rotation and square_vortical")
+    if entry is None:
+        notes.append(f"case '{name}' has no exact solution in sphpost.cases: unit scales; "
+                     "the acoustic frequency is that of a patch of size 1, c0/2")
+        return CaseInfo(name, d, rho0, c0, 1.0, 1.0, "t", rho0 * c0**2, "rho0 c0^2",
+                        c0 / 2, notes)
+    sc = entry.scales(nml.get(name, {}), rho0, c0, notes)
+    c = CaseInfo(name, d, rho0, c0, sc["length"], sc["rate"], entry.time_label,
+                 sc["p_unit"], sc["p_unit_label"], sc["f_acoustic"], notes,
+                 rates=sc.get("rates"))
+    c.volume = sc["volume"]
+    return c

@@ -1,6 +1,7 @@
 """errors: the paper's errors of a circle2d or ellipsoid3d run against the
 exact solution, at the output times and averaged over time; for the square
-patches the probe pressure, kinetic energy and free surface.
+patches, and any case without an exact solution, the probe pressure,
+kinetic energy and free surface.
 
 Prints a table over the snapshot times (or --times / --count), then the
 time-averaged ("mean") absolute errors the paper quotes: semi-axes, particle
@@ -26,7 +27,7 @@ import math
 import sys
 
 from . import exact, foreign
-from .cases import PROBES
+from .cases import CASES, PROBES
 from .cli import main_guard
 from .exceptions import PostprocError
 from .filtering import add_filter_options, filter_from_args, lowpass
@@ -216,11 +217,11 @@ def command(argv, prog="postproc/errors"):
         raise PostprocError("--check-snapshots, --velocity-split and --plane-bands need an "
                                f"sph run's snapshots; '{args.run_dir}' is another code's output")
     fc, tw, how = filter_from_args(c, args)
-    if c.square:
+    if not c.stretching:
         if args.windows:
             raise PostprocError("--windows is for the stretching cases (circle2d, "
                                    f"ellipsoid3d), not {c.name}")
-        return square_report(run, fc, tw, how, args)
+        return patch_report(run, fc, tw, how, args)
     edges = window_edges(args.windows, run) if args.windows else None
     res = stretching_errors(run, fc, tw)
     windows = windowed_errors(res, edges) if edges is not None else None
@@ -353,38 +354,40 @@ def reference_comparison(case, t, p_probe, t_ke, ke, ref_dir, fc, tw):
                                     fc, tw)[0]
 
 
-def square_report(run, fc, tw, how, args):
-    """The square patches: the probe pressure raw and filtered against the
-    initial pressure of the sine series (X3, X4), the kinetic energy
-    against the exact flow's (kept constant), the free surface's outline
-    (area, perimeter, curves) at the first and last output, and the
-    reference comparison's hook.  Prints the report (or JSON)."""
+def patch_report(run, fc, tw, how, args):
+    """The squares, and any case without an exact solution in sphpost.cases:
+    the probe pressure raw and filtered, against the initial pressure of
+    the sine series (X3, X4) for the squares, the kinetic energy, against
+    the exact flow's (kept constant) for the squares, the free surface's
+    outline (area, perimeter, curves) at the first and last output (2D),
+    and the reference comparison's hook.  Prints the report (or JSON)."""
     import numpy as np
     c = run.case
     t = run.time
-    point = np.array(PROBES[c.name]) * c.length
-    pexact = exact.square_rotation_pressure if c.name == "square_rotation" \
-        else exact.square_vortical_pressure
-    scale = c.rate if c.name == "square_rotation" else c.rate * c.length
-    p0_exact = float(pexact(point[0], point[1], c.length, scale, c.rho0)[0])
-    ke0_exact = (exact.square_rotation_kinetic_energy if c.name == "square_rotation"
-                 else exact.square_vortical_kinetic_energy)(c.length, scale, c.rho0)
+    exact_at = CASES[c.name].exact if c.name in CASES else None
+    if exact_at:
+        point = np.array(PROBES[c.name]) * c.length
+        p0_exact, ke0_exact = exact_at(c, point[0], point[1])
+    else:
+        point, p0_exact, ke0_exact = None, None, None
     ke = run.column("kinetic_energy")
     run.column("p_probe_1")
     tp, pp = run.probe_samples("p_probe_1")
     out = {"run": run.path, "case": c.name, "n": run.n_particles, "t_end": float(t[-1]),
-           "probe": point.tolist(), "p0_exact": p0_exact,
+           "probe": None if point is None else point.tolist(), "p0_exact": p0_exact,
            "p_first": float(pp[0]), "p_end": float(pp[-1]),
-           "p0_error": (float(pp[0]) - p0_exact) / c.p_unit,
            "ke0_exact": ke0_exact, "ke_first": float(ke[0]), "ke_end": float(ke[-1]),
-           "ke_change": float(ke[-1] / ke[0] - 1), "ke0_error": float(ke[0] / ke0_exact - 1)}
+           "ke_change": float(ke[-1] / ke[0] - 1) if ke[0] != 0 else None}
+    if exact_at:
+        out["p0_error"] = (float(pp[0]) - p0_exact) / c.p_unit
+        out["ke0_error"] = float(ke[0] / ke0_exact - 1)
     ok = np.isfinite(pp)
     if ok.sum() >= 4:
         tu, pu, pf = lowpass(tp[ok], pp[ok], fc, tw)
         out["p_filt_end"] = float(pf[-1])
         out["p_acoustic_rms"] = float(np.sqrt(np.mean((pu - pf)**2)) / c.p_unit)
     outlines = getattr(run, "outlines", None)
-    if outlines is None and run.snapshots:
+    if outlines is None and run.snapshots and c.dim == 2:
         outlines = {}
         for i in (0, -1):
             s = run.snapshot(i)
@@ -394,6 +397,8 @@ def square_report(run, fc, tw, how, args):
     out["outline"] = {f"{tt:g}": dict(zip(("area", "perimeter", "curves"),
                                           outline_measures(lines)))
                       for tt, lines in (outlines or {}).items()}
+    if args.reference and not c.square:
+        raise PostprocError(f"--reference is for the squares, not {c.name}")
     out["reference"] = reference_comparison(c, tp, pp, t, ke, args.reference, fc, tw)
     if args.json:
         print(json.dumps(out, indent=1))
@@ -405,23 +410,33 @@ def square_report(run, fc, tw, how, args):
           f"t_end {t[-1]:g} ({c.time_label} = {t[-1] * c.rate:g}), {len(t)} rows")
     if c.units:
         print(f"units: {c.units}")
-    print(f"probe at ({point[0]:g}, {point[1]:g}): p(0) {pp[0]:.6g} against the sine series' "
-          f"{p0_exact:.6g} (X3/X4): {out['p0_error']:+.3e} {unit}; at the end {pp[-1]:.6g}")
+    if exact_at:
+        print(f"probe at ({point[0]:g}, {point[1]:g}): p(0) {pp[0]:.6g} against the sine "
+              f"series' {p0_exact:.6g} (X3/X4): {out['p0_error']:+.3e} {unit}; at the end "
+              f"{pp[-1]:.6g}")
+    else:
+        print(f"probe 1: p(0) {pp[0]:.6g}, at the end {pp[-1]:.6g}")
     if "p_filt_end" in out:
         print(f"filtered (cut-off {how}, transition +-{tw:g}): at the end "
               f"{out['p_filt_end']:.6g}; RMS of the removed acoustic part "
               f"{out['p_acoustic_rms']:.3e} {unit}")
     else:
         print("filtered probe pressure: fewer than 4 samples, left out")
-    print(f"kinetic energy: {ke[0]:.6g} at the start ({100 * out['ke0_error']:+.4f} % from the "
-          f"exact {ke0_exact:.6g}), {ke[-1]:.6g} at the end ({100 * out['ke_change']:+.4f} %)")
+    change = "" if out["ke_change"] is None else f" ({100 * out['ke_change']:+.4f} %)"
+    if exact_at:
+        print(f"kinetic energy: {ke[0]:.6g} at the start ({100 * out['ke0_error']:+.4f} % from "
+              f"the exact {ke0_exact:.6g}), {ke[-1]:.6g} at the end{change}")
+    else:
+        print(f"kinetic energy: {ke[0]:.6g} at the start, {ke[-1]:.6g} at the end{change}")
     for tt, m in out["outline"].items():
         print(f"free surface at {c.time_label} = {float(tt) * c.rate:g}: area "
               f"{m['area'] / c.length**2:.5f} L^2, perimeter {m['perimeter'] / c.length:.4f} L, "
               f"{m['curves']} closed curve(s)")
     r = out["reference"]
     if r is None:
-        print("reference solution: none given (--reference DIR, a run of postproc/reference)")
+        if c.square:
+            print("reference solution: none given (--reference DIR, a run of "
+                  "postproc/reference)")
     else:
         print(f"against the reference {args.reference}, {c.time_label} in "
               f"[0, {r['p_interval_end']:.3g}] (both probes in the fluid): probe pressure mean "

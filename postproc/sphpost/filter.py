@@ -64,7 +64,7 @@ def filter_probes(run, fopts, output=None, dt=None, echo=print):
         raise PostprocError(f"{run.path}/timeseries.csv has no probe columns "
                                "(output.n_probes = 0?)")
     fc, tw, how = filter_from_args(c, fopts)
-    unit = c.time_label.replace("t ", "")
+    unit = c.rate_label
     for n in c.notes:
         echo(f"note: {n}")
     echo(f"run {run.path}: {c.name}; cut-off {how}; transition +-{tw:g} "

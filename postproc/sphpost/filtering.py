@@ -108,7 +108,7 @@ def cutoff(case, acoustic_fraction=None, flow_multiple=None):
     if flow_multiple is not None and acoustic_fraction is not None:
         raise PostprocError("give the cut-off either relative to the acoustic frequency "
                             "or to the flow rate, not both")
-    unit = case.time_label.replace("t ", "")
+    unit = case.rate_label
     if flow_multiple is not None:
         if not flow_multiple > 0:
             raise PostprocError(f"--cutoff-flow must be positive, got {flow_multiple}")

@@ -1124,6 +1124,9 @@ def figure(runs, refs, output, labels=None, dpi=110):
             a2.plot(c[:, 0], c[:, 1], "k-", lw=0.6)
         a2.set_aspect("equal")
         a2.set_title(f"{tl} = {tk:g}", fontsize=9)
+        a2.set_xlabel("x / L", fontsize=8)
+        if j == 0:
+            a2.set_ylabel("y / L", fontsize=8)
         a2.tick_params(labelsize=7)
     fig.suptitle(f"{s.case}: SPH against the reference (black: {refs[-1].setup.label})")
     fig.tight_layout()

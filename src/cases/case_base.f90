@@ -4,6 +4,15 @@
 !> the time-series columns and snapshot fields it adds (typically its exact
 !> or reference solution and the errors against it), and its closing summary.
 !> A new case is a new module extending case_t plus one line in case_factory.
+!>
+!> A case must say its group (visit, a line a variable), its largest
+!> initial speed (max_speed: the Mach check) and its particles (setup); the
+!> rest has defaults here for a case that adds nothing: no rules between its
+!> variables, no packing, no columns, the solver's free-surface indicator
+!> (and vorticity in 2D) as its snapshot fields, no summary.  The defaults
+!> ignore the arguments an override uses, as a case may ignore what it does
+!> not need: the Makefile compiles src/cases/case_*.f90 without the
+!> unused-argument warning.
 module case_base
   use kinds, only: wp, i8
   use input_visit, only: visit_t
@@ -16,7 +25,7 @@ module case_base
   use mirrors, only: PLANE_SLAB
   implicit none
   private
-  public :: case_t, case_fields_t, case_flow_t, case_slot_t, keep_share
+  public :: case_t, case_fields_t, case_flow_t, case_slot_t, keep_share, flow_field
 
   !> The names of a case's extra per-particle snapshot fields (their
   !> values come one at a time from case_t%field) and its root attributes.
@@ -55,11 +64,11 @@ module case_base
     procedure :: check => no_check
     procedure(max_speed_i), deferred :: max_speed
     procedure(setup_i), deferred :: setup
-    procedure(columns_i), deferred :: columns
-    procedure(sample_i), deferred :: sample
-    procedure(fields_i), deferred :: fields
-    procedure(field_i), deferred :: field
-    procedure(summary_i), deferred :: summary
+    procedure :: columns => no_columns
+    procedure :: sample => no_sample
+    procedure :: fields => flow_fields
+    procedure :: field => flow_field
+    procedure :: summary => no_summary
   end type case_t
 
   !> One case of a list of cases of different types.
@@ -100,59 +109,6 @@ module case_base
       real(wp), intent(out) :: dx
       integer, intent(in) :: share(2)
     end subroutine setup_i
-
-    !> Names of the time-series columns the case adds after the generic ones.
-    subroutine columns_i(self, names)
-      import :: case_t
-      class(case_t), intent(in) :: self
-      character(len=32), allocatable, intent(out) :: names(:)
-    end subroutine columns_i
-
-    !> Values of those columns at time t (collective over env).
-    subroutine sample_i(self, env, t, parts, kernel, values)
-      import :: case_t, parallel_env_t, particles_t, kernel_t, wp
-      class(case_t), intent(inout) :: self
-      type(parallel_env_t), intent(in) :: env
-      real(wp), intent(in) :: t
-      type(particles_t), intent(in) :: parts
-      type(kernel_t), intent(in) :: kernel
-      real(wp), allocatable, intent(out) :: values(:)
-    end subroutine sample_i
-
-    !> The names of the extra snapshot fields and the attributes at time t.
-    subroutine fields_i(self, t, f)
-      import :: case_t, case_fields_t, wp
-      class(case_t), intent(inout) :: self
-      real(wp), intent(in) :: t
-      type(case_fields_t), intent(out) :: f
-    end subroutine fields_i
-
-    !> The values at time t of the extra snapshot field `name` (one that
-    !> fields_i names) for the local particles, which may use the solver's
-    !> fields of the flow: v(3, n) for a vector, s(n) for a scalar, the
-    !> other left unallocated.  One field a call, so that a snapshot holds
-    !> one beside the particles (at a million particles on 2 ranks, all at
-    !> once took a rank above 400 MB: doc/studies/ellipsoid3d.md).
-    subroutine field_i(self, t, name, parts, flow, v, s)
-      import :: case_t, particles_t, case_flow_t, wp
-      class(case_t), intent(inout) :: self
-      real(wp), intent(in) :: t
-      character(len=*), intent(in) :: name
-      type(particles_t), intent(in) :: parts
-      type(case_flow_t), intent(in) :: flow
-      real(wp), allocatable, intent(out) :: v(:, :), s(:)
-    end subroutine field_i
-
-    !> The closing summary (rank 0 writes to unit; collective over env).
-    subroutine summary_i(self, env, unit, t, parts, kernel)
-      import :: case_t, parallel_env_t, particles_t, kernel_t, wp
-      class(case_t), intent(inout) :: self
-      type(parallel_env_t), intent(in) :: env
-      integer, intent(in) :: unit
-      real(wp), intent(in) :: t
-      type(particles_t), intent(in) :: parts
-      type(kernel_t), intent(in) :: kernel
-    end subroutine summary_i
   end interface
 
 contains
@@ -166,7 +122,6 @@ contains
     var = ''
     what = ''
     hint = ''
-    if (.false.) var = self%name
   end subroutine no_check
 
   !> The state at the current positions of particles of volume m/rho, for
@@ -176,8 +131,74 @@ contains
     type(eos_t), intent(in) :: eos
     type(particles_t), intent(inout) :: parts
     if (self%pack_radius > 0) error stop 'case_t: a case that packs must set its initial_state'
-    if (.false.) parts%n = parts%n + 0 * int(eos%c0)
   end subroutine no_initial_state
+
+  !> Names of the time-series columns the case adds after the generic ones:
+  !> none by default.
+  subroutine no_columns(self, names)
+    class(case_t), intent(in) :: self
+    character(len=32), allocatable, intent(out) :: names(:)
+    allocate(names(0))
+  end subroutine no_columns
+
+  !> Values of those columns at time t (collective over env).
+  subroutine no_sample(self, env, t, parts, kernel, values)
+    class(case_t), intent(inout) :: self
+    type(parallel_env_t), intent(in) :: env
+    real(wp), intent(in) :: t
+    type(particles_t), intent(in) :: parts
+    type(kernel_t), intent(in) :: kernel
+    real(wp), allocatable, intent(out) :: values(:)
+    allocate(values(0))
+  end subroutine no_sample
+
+  !> The names of the extra snapshot fields and the attributes at time t:
+  !> by default the solver's free-surface indicator `free_surface_lambda`
+  !> (E9) and, in 2D, its `vorticity`; no attributes.
+  subroutine flow_fields(self, t, f)
+    class(case_t), intent(inout) :: self
+    real(wp), intent(in) :: t
+    type(case_fields_t), intent(out) :: f
+    allocate(f%vector_names(0), f%attr_names(0), f%attr_values(0))
+    f%scalar_names = [character(len=32) :: 'free_surface_lambda']
+    if (self%dim == 2) f%scalar_names = [character(len=32) :: 'vorticity', f%scalar_names]
+  end subroutine flow_fields
+
+  !> The values at time t of the extra snapshot field `name` (one that
+  !> fields names) for the local particles, which may use the solver's
+  !> fields of the flow: v(3, n) for a vector, s(n) for a scalar, the
+  !> other left unallocated.  One field a call, so that a snapshot holds
+  !> one beside the particles (at a million particles on 2 ranks, all at
+  !> once took a rank above 400 MB: doc/studies/ellipsoid3d.md).  By
+  !> default the solver's fields of flow_fields; an override calls this
+  !> one for them.
+  subroutine flow_field(self, t, name, parts, flow, v, s)
+    class(case_t), intent(inout) :: self
+    real(wp), intent(in) :: t
+    character(len=*), intent(in) :: name
+    type(particles_t), intent(in) :: parts
+    type(case_flow_t), intent(in) :: flow
+    real(wp), allocatable, intent(out) :: v(:, :), s(:)
+    select case (name)
+    case ('vorticity')
+      s = flow%omega(1:parts%n)
+    case ('free_surface_lambda')
+      s = flow%lambda(1:parts%n)
+    case default
+      error stop trim(self%name) // ': no snapshot field ' // name
+    end select
+  end subroutine flow_field
+
+  !> The closing summary (rank 0 writes to unit; collective over env): none
+  !> by default.
+  subroutine no_summary(self, env, unit, t, parts, kernel)
+    class(case_t), intent(inout) :: self
+    type(parallel_env_t), intent(in) :: env
+    integer, intent(in) :: unit
+    real(wp), intent(in) :: t
+    type(particles_t), intent(in) :: parts
+    type(kernel_t), intent(in) :: kernel
+  end subroutine no_summary
 
   !> For a case that sets up all its particles (ids 1..N in order): keeps
   !> the share of setup_i's rule.

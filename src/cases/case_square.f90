@@ -1,5 +1,8 @@
 !> Prototype problems 2 and 3: the free-surface square patches of side L,
-!> centred at the origin, on a square lattice of spacing dx.
+!> centred at the origin, on a square lattice of spacing dx.  What the two
+!> cases share (the lattice, the initial pressure, the symmetry and topology
+!> diagnostics) is square_patch_t's; each case's flow, extra columns and
+!> summary are its own type's (case_square_rotation, case_square_vortical).
 !>
 !>  - `square_rotation` (paper eq. 2, doc/theory/ X3): rigid rotation
 !>    u = omega y, v = -omega x; Laplacian p0 = 2 rho omega^2, p0 = 0 on the
@@ -21,54 +24,44 @@
 !> lattice is mapped onto itself by the symmetry S of the case, which pairs
 !> each particle with its partner (symmetry error below).
 module case_square
-  use kinds, only: wp, pi
-  use case_base, only: case_t, case_fields_t, case_flow_t, keep_share
+  use kinds, only: wp
+  use case_base, only: case_t, case_fields_t, case_flow_t, keep_share, flow_field
   use input_params, only: particles_params_t, physics_params_t
-  use kernels, only: kernel_t, kernel_init, kernel_kind_of
+  use kernels, only: kernel_t
   use particles, only: particles_t, particles_allocate
+  use placement, only: place_square
   use eos, only: eos_t, eos_density
-  use poisson_square, only: poisson_square_t, poisson_square_nodes, poisson_square_solve, &
-                            poisson_square_eval, POISSON_DEFAULT_N
-  use diagnostics, only: probe_pressure, kinetic_energy, total_momentum
+  use poisson_square, only: poisson_square_t, poisson_square_solve, poisson_square_eval, &
+                            POISSON_DEFAULT_N
   use flow_diagnostics, only: angular_momentum, gather_by_id, symmetry_error, topology_t, &
                               fluid_topology
-  use spectrum, only: dominant_frequency
   use parallel_env, only: parallel_env_t
-  use, intrinsic :: ieee_arithmetic, only: ieee_is_nan
   implicit none
   private
-  public :: square_patch_t, vortical_velocity, vortical_vorticity, SQ_ROTATION, SQ_VORTICAL
+  public :: square_patch_t, square_columns, square_sample, square_fields, square_topology_summary
 
-  integer, parameter :: SQ_ROTATION = 1, SQ_VORTICAL = 2
-
-  !> Lowest frequency searched for the acoustic peak of p_A, as a fraction
-  !> of the lowest acoustic mode c0/(sqrt(2) L) (X6): the filter's cut-off.
-  !> A fixed 0.8 omega let the slow rise that the detrend leaves win over
-  !> the acoustic peak at 90,000 particles (1.20 omega found, f0 4.95).
-  real(wp), parameter :: F_MIN_OVER_F0 = 0.5_wp
   !> Smallest cavity, in units of L^2: the reconnecting free surface of the
   !> vortical patch encloses voids of 2.7 % of L^2 within 0.1 L/V0 (10,000
   !> particles), while gaps opened between particles under tension stay
   !> below 0.7 % (flow_diagnostics: fluid_topology).
   real(wp), parameter :: CAVITY_AREA = 0.01_wp
-  !> Interval between evaluations of the topology, in units of 1/omega or
-  !> L/V0: 1 % of the time scale.  Evaluated at every sample it cost a third
-  !> of the run time at 10,000 particles (up to 10 ms a sample as the
-  !> patch spreads over a larger box).
+  !> Interval between evaluations of the topology, in units of the case's
+  !> time_unit: 1 %.  Evaluated at every sample it cost a third of the run
+  !> time at 10,000 particles (up to 10 ms a sample as the patch spreads
+  !> over a larger box).
   real(wp), parameter :: TOPOLOGY_INTERVAL = 0.01_wp
 
-  !> A square patch, its reference values and the running diagnostics.
-  !> kind, side and rate are set by the concrete case.
+  !> A square patch, its reference values and the running diagnostics.  A
+  !> case says its flow (initial_velocity, pressure_source,
+  !> initial_vorticity), its time unit and its symmetry `sym`.
   type, abstract, extends(case_t) :: square_patch_t
-    integer :: kind = SQ_ROTATION
     real(wp) :: side = 1, rate = 1      !< L; omega (rotation) or V0 (vortical)
     real(wp) :: rho0 = 1, c0 = 10, dx = 1
     integer :: n_side = 0, n_global = 0
     integer, allocatable :: partner(:)  !< by id: the particle that started at S x0
-    real(wp) :: sym(2, 2) = 0           !< the symmetry S
+    real(wp) :: sym(2, 2) = 0           !< the symmetry S (entries 0 and +-1)
     real(wp) :: p_centre0 = 0           !< p_A(0) from the Poisson solution
     real(wp) :: p_quarter0 = 0          !< p0(L/4, L/4) from the Poisson solution
-    real(wp) :: ke_ref = 0              !< rotation: rho omega^2 L^4/12
     !> the initial kinetic energy, angular momentum, momentum and topology,
     !> from the whole lattice at setup (so that they stay those of t = 0
     !> in a run restarted later)
@@ -78,19 +71,53 @@ module case_square
     type(topology_t) :: topo, topo0
     real(wp) :: t_split = -1, t_hole = -1, t_cavity = -1
     real(wp) :: t_topo = 0              !< time of the last topology evaluation
-    real(wp) :: time_unit = 1           !< 1/omega or L/V0
     integer :: n_samples = 0
-    ! the centre pressure history (rotation), for its spectrum
-    integer :: n_hist = 0
-    real(wp), allocatable :: t_hist(:), p_hist(:)
   contains
+    procedure(velocity_i), deferred :: initial_velocity
+    procedure(source_i), deferred :: pressure_source
+    procedure(vorticity_i), deferred :: initial_vorticity
+    procedure(time_unit_i), deferred :: time_unit
     procedure :: setup => square_setup
     procedure :: columns => square_columns
     procedure :: sample => square_sample
     procedure :: fields => square_fields
     procedure :: field => square_field
-    procedure :: summary => square_summary
   end type square_patch_t
+
+  abstract interface
+    !> The initial velocity at (x, y).
+    pure function velocity_i(self, x, y) result(u)
+      import :: square_patch_t, wp
+      class(square_patch_t), intent(in) :: self
+      real(wp), intent(in) :: x, y
+      real(wp) :: u(3)
+    end function velocity_i
+
+    !> The Laplacian of the initial pressure on the Poisson solver's grid of
+    !> ng x ng nodes (poisson_square_nodes(side, ng) in each direction).
+    function source_i(self, ng) result(f)
+      import :: square_patch_t, wp
+      class(square_patch_t), intent(in) :: self
+      integer, intent(in) :: ng
+      real(wp), allocatable :: f(:, :)
+    end function source_i
+
+    !> The initial vorticity at the initial positions x0(:, 1:n), which an
+    !> inviscid 2D flow keeps on each particle.
+    function vorticity_i(self, x0) result(w)
+      import :: square_patch_t, wp
+      class(square_patch_t), intent(in) :: self
+      real(wp), intent(in) :: x0(:, :)
+      real(wp), allocatable :: w(:)
+    end function vorticity_i
+
+    !> The case's time scale (1/omega, L/V0).
+    pure function time_unit_i(self) result(t)
+      import :: square_patch_t, wp
+      class(square_patch_t), intent(in) :: self
+      real(wp) :: t
+    end function time_unit_i
+  end interface
 
 contains
 
@@ -107,63 +134,36 @@ contains
     real(wp), intent(out) :: dx
     integer, intent(in) :: share(2)
     type(poisson_square_t) :: ps
-    real(wp), allocatable :: f(:, :), xn(:), g(:)
+    real(wp), allocatable :: xl(:, :)
     real(wp) :: x, y, p, xr(2)
-    integer :: i, j, id, ng
+    integer :: i, j, id, s(2, 2)
     self%dim = 2
     self%rho0 = physics%rho0
     self%c0 = physics%c0
-    associate(l => self%side, rate => self%rate, rho0 => self%rho0, ns => self%n_side)
-    ns = max(4, nint(sqrt(real(particles%n, wp))))
-    dx = l / ns
+    associate(l => self%side, ns => self%n_side)
+    call place_square(l, particles%n, xl, dx, ns)
     self%dx = dx
     self%n_global = ns**2
 
     ! the initial pressure: Laplacian p0 = f, p0 = 0 on the edges
-    ng = POISSON_DEFAULT_N
-    allocate(f(ng, ng), xn(ng), g(ng))
-    xn = poisson_square_nodes(l, ng)
-    if (self%kind == SQ_ROTATION) then
-      f = 2 * rho0 * rate**2                     ! (X3)
-    else
-      g = -rate * dfdx(xn, l)                    ! -V0 f'(x) = V0 (32/L^2) x f(x)
-      do j = 1, ng
-        do i = 1, ng
-          f(i, j) = 2 * rho0 * g(i) * g(j)       ! (X4) 2 rho V0^2 f'(x) f'(y)
-        end do
-      end do
-    end if
-    call poisson_square_solve(l, f, ps)
+    call poisson_square_solve(l, self%pressure_source(POISSON_DEFAULT_N), ps)
     self%p_centre0 = poisson_square_eval(ps, 0.0_wp, 0.0_wp)
     self%p_quarter0 = poisson_square_eval(ps, 0.25_wp * l, 0.25_wp * l)
-    self%ke_ref = rho0 * rate**2 * l**4 / 12
-    self%time_unit = 1 / rate
-    if (self%kind == SQ_VORTICAL) self%time_unit = l / rate
 
     ! the lattice; S maps particle (i, j) onto its partner
     call particles_allocate(parts, 2, ns**2)
     parts%n = ns**2
     allocate(self%partner(ns**2))
-    if (self%kind == SQ_ROTATION) then
-      self%sym = reshape([0.0_wp, 1.0_wp, -1.0_wp, 0.0_wp], [2, 2])   ! (x, y) -> (-y, x)
-    else
-      self%sym = reshape([0.0_wp, -1.0_wp, -1.0_wp, 0.0_wp], [2, 2])  ! (x, y) -> (-y, -x)
-    end if
+    s = nint(self%sym)
     do j = 1, ns
       do i = 1, ns
         id = i + (j - 1) * ns
-        ! centred on the origin, so that -x and -y are lattice points exactly
-        x = (i - 0.5_wp * (ns + 1)) * dx
-        y = (j - 0.5_wp * (ns + 1)) * dx
-        parts%x(:, id) = [x, y, 0.0_wp]
+        x = xl(1, id)
+        y = xl(2, id)
+        parts%x(:, id) = xl(:, id)
         parts%x0(:, id) = parts%x(:, id)
-        if (self%kind == SQ_ROTATION) then
-          parts%u(:, id) = [rate * y, -rate * x, 0.0_wp]
-          self%partner(id) = (ns + 1 - j) + (i - 1) * ns
-        else
-          parts%u(:, id) = vortical_velocity(x, y, l, rate)
-          self%partner(id) = (ns + 1 - j) + (ns - i) * ns
-        end if
+        parts%u(:, id) = self%initial_velocity(x, y)
+        self%partner(id) = image_id(s, i, j, ns)
         ! the same value on every point of an orbit of S (p is symmetric
         ! but its series, summed at different points, not to the last bit)
         xr = orbit_representative(self%sym, [x, y])
@@ -187,6 +187,16 @@ contains
     call keep_share(parts, share)
   end subroutine square_setup
 
+  !> The id of the lattice point S x of point (i, j) of the n_side^2
+  !> lattice: its index 2 i - n_side - 1 is proportional to x, so that S
+  !> (entries 0 and +-1) maps indices exactly.
+  pure integer function image_id(s, i, j, n_side)
+    integer, intent(in) :: s(2, 2), i, j, n_side
+    integer :: k(2)
+    k = (matmul(s, [2 * i - n_side - 1, 2 * j - n_side - 1]) + n_side + 1) / 2
+    image_id = k(1) + (k(2) - 1) * n_side
+  end function image_id
+
   !> The point of the orbit {x, S x, S^2 x, ...} of x under the symmetry S
   !> (entries 0 and +-1: exact) that is largest in (x, then y).
   pure function orbit_representative(sym, x) result(r)
@@ -201,44 +211,16 @@ contains
     end do
   end function orbit_representative
 
-  !> f'(s) for f(s) = exp(-(4 s/L)^2).
-  elemental function dfdx(s, l) result(d)
-    real(wp), intent(in) :: s, l
-    real(wp) :: d
-    d = -32 * s / l**2 * exp(-(4 * s / l)**2)
-  end function dfdx
-
-  !> The vortical patch's initial velocity (X4) at (x, y).
-  pure function vortical_velocity(x, y, l, v0) result(u)
-    real(wp), intent(in) :: x, y, l, v0
-    real(wp) :: u(3)
-    u = [v0 * (exp(-(4 * y / l)**2) - exp(-4.0_wp)), &
-         -v0 * (exp(-(4 * x / l)**2) - exp(-4.0_wp)), 0.0_wp]
-  end function vortical_velocity
-
-  !> Its vorticity dv/dx - du/dy = -V0 (f'(x) + f'(y)), carried unchanged
-  !> by each fluid particle in inviscid 2D flow.
-  elemental function vortical_vorticity(x, y, l, v0) result(w)
-    real(wp), intent(in) :: x, y, l, v0
-    real(wp) :: w
-    w = -v0 * (dfdx(x, l) + dfdx(y, l))
-  end function vortical_vorticity
-
-  !> Time-series columns (doc/reference/output.md).
+  !> Time-series columns (doc/reference/output.md) both squares have.
   subroutine square_columns(self, names)
     class(square_patch_t), intent(in) :: self
     character(len=32), allocatable, intent(out) :: names(:)
-    allocate(names(0))
-    if (self%kind == SQ_ROTATION) &
-      names = [character(len=32) :: 'p_centre', 'p_centre_initial', 'kinetic_energy_ref']
-    names = [character(len=32) :: names, 'angular_momentum', 'symmetry_error', &
+    names = [character(len=32) :: 'angular_momentum', 'symmetry_error', &
              'symmetry_error_max', 'fluid_components', 'fluid_holes', 'fluid_cavities', &
              'largest_hole_area', 'largest_component_share']
   end subroutine square_columns
 
   !> Values of the columns at time t:
-  !>  - p_centre: pressure at A (Shepard interpolation); p_centre_initial:
-  !>    p_A(0) of the Poisson solution; kinetic_energy_ref: rho omega^2 L^4/12;
   !>  - angular_momentum: Sum m (x v - y u);
   !>  - symmetry_error(_max): RMS (largest) over particles of
   !>    |x_partner - S x| / dx (module header);
@@ -257,13 +239,13 @@ contains
     type(kernel_t), intent(in) :: kernel
     real(wp), allocatable, intent(out) :: values(:)
     real(wp), allocatable :: xg(:, :)
-    real(wp) :: lz, p_centre
+    real(wp) :: lz
     lz = angular_momentum(env, parts)
     call gather_by_id(env, parts, parts%x, 2, self%n_global, xg)
     call symmetry_error(xg, self%partner, self%sym, self%dx, self%sym_rms, self%sym_max)
     ! the topology costs more than the rest of a sample: at most every
-    ! TOPOLOGY_INTERVAL time units (1/omega or L/V0)
-    if (self%n_samples == 0 .or. t >= self%t_topo + TOPOLOGY_INTERVAL * self%time_unit) then
+    ! TOPOLOGY_INTERVAL time units
+    if (self%n_samples == 0 .or. t >= self%t_topo + TOPOLOGY_INTERVAL * self%time_unit()) then
       self%topo = fluid_topology(xg, self%dx, CAVITY_AREA * self%side**2)
       self%t_topo = t
       if (self%t_split < 0 .and. self%topo%components /= self%topo0%components) self%t_split = t
@@ -271,60 +253,23 @@ contains
       if (self%t_cavity < 0 .and. self%topo%cavities /= self%topo0%cavities) self%t_cavity = t
     end if
     self%n_samples = self%n_samples + 1
-    allocate(values(0))
-    if (self%kind == SQ_ROTATION) then
-      p_centre = probe_pressure(env, parts, kernel, [0.0_wp, 0.0_wp, 0.0_wp])
-      call record(self, t, p_centre)
-      values = [p_centre, self%p_centre0, self%ke_ref]
-    end if
-    values = [values, lz, self%sym_rms, self%sym_max, real(self%topo%components, wp), &
+    values = [lz, self%sym_rms, self%sym_max, real(self%topo%components, wp), &
               real(self%topo%holes, wp), real(self%topo%cavities, wp), &
               self%topo%largest_hole / self%side**2, 0.001_wp * self%topo%largest_share]
   end subroutine square_sample
 
-  !> Appends (t, p) to the centre-pressure history (a NaN, no particle near
-  !> the centre, is left out).
-  subroutine record(self, t, p)
-    class(square_patch_t), intent(inout) :: self
-    real(wp), intent(in) :: t, p
-    real(wp), allocatable :: tmp(:)
-    if (ieee_is_nan(p)) return
-    if (.not. allocated(self%t_hist)) allocate(self%t_hist(1024), self%p_hist(1024))
-    if (self%n_hist == size(self%t_hist)) then
-      allocate(tmp(2 * self%n_hist))
-      tmp(1:self%n_hist) = self%t_hist
-      call move_alloc(tmp, self%t_hist)
-      allocate(tmp(2 * self%n_hist))
-      tmp(1:self%n_hist) = self%p_hist
-      call move_alloc(tmp, self%p_hist)
-    end if
-    self%n_hist = self%n_hist + 1
-    self%t_hist(self%n_hist) = t
-    self%p_hist(self%n_hist) = p
-  end subroutine record
-
   !> Snapshot fields: `vorticity`, the SPH curl of the velocity
-  !> (solver_flow_fields), `vorticity_initial`, the
-  !> vorticity each particle started with, which an inviscid 2D flow keeps
-  !> (-2 omega for the rotating square), and `free_surface_lambda`, the
-  !> free-surface indicator (E9: below 0.55 on the free surface).  Attribute time_scaled: t omega
-  !> (rotation) or t V0/L (vortical); rotation also p_centre_initial,
-  !> kinetic_energy_ref.
+  !> (solver_flow_fields), `vorticity_initial`, the vorticity each particle
+  !> started with, which an inviscid 2D flow keeps, and
+  !> `free_surface_lambda`, the free-surface indicator (E9: below 0.55 on
+  !> the free surface); the attributes are the case's.
   subroutine square_fields(self, t, f)
     class(square_patch_t), intent(inout) :: self
     real(wp), intent(in) :: t
     type(case_fields_t), intent(out) :: f
     f%scalar_names = [character(len=32) :: 'vorticity', 'vorticity_initial', &
                       'free_surface_lambda']
-    allocate(f%vector_names(0))
-    if (self%kind == SQ_ROTATION) then
-      f%attr_names = [character(len=32) :: 'time_scaled', 'p_centre_initial', &
-                      'kinetic_energy_ref']
-      f%attr_values = [t * self%rate, self%p_centre0, self%ke_ref]
-    else
-      f%attr_names = [character(len=32) :: 'time_scaled']
-      f%attr_values = [t * self%rate / self%side]
-    end if
+    allocate(f%vector_names(0), f%attr_names(0), f%attr_values(0))
   end subroutine square_fields
 
   !> The values of one of the fields square_fields names (none depends on t).
@@ -335,137 +280,33 @@ contains
     type(particles_t), intent(in) :: parts
     type(case_flow_t), intent(in) :: flow
     real(wp), allocatable, intent(out) :: v(:, :), s(:)
-    integer :: n
-    n = parts%n
-    select case (name)
-    case ('vorticity')
-      s = flow%omega(1:n)
-    case ('vorticity_initial')
-      if (self%kind == SQ_ROTATION) then
-        allocate(s(n))
-        s = -2 * self%rate
-      else
-        s = vortical_vorticity(parts%x0(1, 1:n), parts%x0(2, 1:n), self%side, self%rate)
-      end if
-    case ('free_surface_lambda')
-      s = flow%lambda(1:n)
-    case default
-      error stop 'square_field: no field ' // name
-    end select
-    if (.false.) v = reshape([t], [1, 1])   ! (the interface's v and t, unused here)
+    if (name == 'vorticity_initial') then
+      s = self%initial_vorticity(parts%x0(:, 1:parts%n))
+    else
+      call flow_field(self, t, name, parts, flow, v, s)
+    end if
   end subroutine square_field
 
-  !> The closing summary (rank 0 prints; collective).
-  subroutine square_summary(self, env, unit, t, parts, kernel)
-    class(square_patch_t), intent(inout) :: self
-    type(parallel_env_t), intent(in) :: env
+  !> The closing summary's lines on the fluid region's topology, times
+  !> scaled by ts and named tunit (e.g. 't omega'); with the paper's
+  !> reconnection time when `paper` (rank 0).
+  subroutine square_topology_summary(self, unit, tunit, ts, paper)
+    class(square_patch_t), intent(in) :: self
     integer, intent(in) :: unit
-    real(wp), intent(in) :: t
-    type(particles_t), intent(in) :: parts
-    type(kernel_t), intent(in) :: kernel
-    real(wp) :: ke, lz, mom(3), p_centre, f0, freq, scale_p, ts
-    integer :: j, k
-    character(len=:), allocatable :: tunit
-    ke = kinetic_energy(env, parts)
-    lz = angular_momentum(env, parts)
-    mom = total_momentum(env, parts)
-    p_centre = probe_pressure(env, parts, kernel, [0.0_wp, 0.0_wp, 0.0_wp])
-    if (env%rank /= 0) return
-    associate(l => self%side, rate => self%rate, rho0 => self%rho0)
-    write(unit, '(a)') ''
-    if (self%kind == SQ_ROTATION) then
-      scale_p = rho0 * rate**2 * l**2
-      f0 = self%c0 / (sqrt(2.0_wp) * l)
-      write(unit, '(a,f8.4,a,i0,a,f8.5,a)') 'Rotating square at t omega = ', t * rate, &
-        ' (', self%n_global, ' particles, dx = ', self%dx / l, ' L):'
-      write(unit, '(2x,a,f10.6,a,f10.6,a)') 'pressure at A: initial ', &
-        self%p_centre0 / scale_p, ' (series -0.147343), now (raw) ', p_centre / scale_p, &
-        ' rho omega^2 L^2'
-      ! the acoustic frequency of p_A in windows of 1/omega: the first one
-      ! against the lowest mode of the square, the later ones as the patch
-      ! deforms (its core shrinks and the frequency rises)
-      freq = window_frequency(self, 0.0_wp, 1 / rate)
-      if (freq > 0) then
-        write(unit, '(2x,a,f8.4,a,f8.4,a,f7.2,a)') 'dominant frequency of raw p_A over ' // &
-          '0 <= t omega <= 1: ', freq / rate, ' omega; lowest acoustic mode c0/(sqrt(2) L) = ', &
-          f0 / rate, ' omega: ', 100 * (freq / f0 - 1), ' %'
-      else
-        write(unit, '(2x,a)') 'dominant frequency of raw p_A: too few samples (it needs ' // &
-          '32 over 0 <= t omega <= 1: t_end >= 1/omega and a small output.probe_every)'
-      end if
-      k = 1
-      do while (k < 16)
-        if (.not. window_frequency(self, k / rate, (k + 1) / rate) > 0) exit
-        k = k + 1
-      end do
-      if (k > 1) write(unit, '(2x,a,15f7.3)') 'later, in windows of 1/omega: ', &
-        (window_frequency(self, j / rate, (j + 1) / rate) / rate, j = 1, k - 1)
-      write(unit, '(2x,a,f8.5,a,f8.3,a)') 'kinetic energy / KE0 (rho omega^2 L^4/12) ', &
-        ke / self%ke_ref, ', change since t = 0 ', 100 * (ke / self%ke_start - 1), ' %'
-      write(unit, '(2x,a,es10.3)') 'angular momentum: relative change since t = 0 ', &
-        (lz - self%lz_start) / abs(self%lz_start)
-      write(unit, '(2x,a,es10.3,a,es10.3,a)') '4-fold symmetry error: RMS ', self%sym_rms, &
-        ' dx, largest ', self%sym_max, ' dx'
-    else
-      scale_p = rho0 * rate**2
-      write(unit, '(a,f8.4,a,i0,a,f8.5,a)') 'Vortical square at t V0/L = ', t * rate / l, &
-        ' (', self%n_global, ' particles, dx = ', self%dx / l, ' L):'
-      write(unit, '(2x,a,f10.6,a)') 'initial pressure p0(L/4, L/4) ', &
-        self%p_quarter0 / scale_p, ' rho V0^2 (doc/theory/ X4: -0.229452)'
-      write(unit, '(2x,a,f8.3,a)') 'kinetic energy change since t = 0 ', &
-        100 * (ke / self%ke_start - 1), ' %'
-      write(unit, '(2x,a,es10.3,a)') 'angular momentum change since t = 0 ', &
-        (lz - self%lz_start) / (rho0 * rate * l**3), ' rho V0 L^3'
-      write(unit, '(2x,a,2f10.6,a,2f10.6,a)') 'momentum ', mom(1:2) / (rho0 * rate * l**2), &
-        ' rho V0 L^2 (initial ', self%mom_start(1:2) / (rho0 * rate * l**2), ')'
-      write(unit, '(2x,a,es10.3,a,es10.3,a)') 'mirror-symmetry error: RMS ', self%sym_rms, &
-        ' dx, largest ', self%sym_max, ' dx'
-    end if
+    character(len=*), intent(in) :: tunit
+    real(wp), intent(in) :: ts
+    logical, intent(in) :: paper
     write(unit, '(2x,a,i0,a,i0,a,i0,a,f6.1,a)') 'fluid region: ', self%topo%components, &
       ' component(s), ', self%topo%holes, ' hole(s), ', self%topo%cavities, &
       ' cavities; the largest component holds ', 0.1_wp * self%topo%largest_share, &
       ' % of the particles'
-    if (self%kind == SQ_ROTATION) then
-      tunit = 't omega'
-      ts = rate
-    else
-      tunit = 't V0/L'
-      ts = rate / l
-    end if
     call print_first(unit, 'first cavity (reconnection of the free surface)', &
-                     self%t_cavity, self%topo0%cavities, tunit, ts, self%kind == SQ_VORTICAL)
+                     self%t_cavity, self%topo0%cavities, tunit, ts, paper)
     call print_first(unit, 'first hole of any size', self%t_hole, self%topo0%holes, &
                      tunit, ts, .false.)
     call print_first(unit, 'first split of the fluid region', self%t_split, &
                      self%topo0%components, tunit, ts, .false.)
-    end associate
-  end subroutine square_summary
-
-  !> Dominant frequency (dominant_frequency, above F_MIN_OVER_F0 f0)
-  !> of the recorded p_A over t0 <= t <= t1; 0 unless the record covers the
-  !> window with at least 32 samples.
-  function window_frequency(self, t0, t1) result(freq)
-    class(square_patch_t), intent(in) :: self
-    real(wp), intent(in) :: t0, t1
-    real(wp) :: freq, eps
-    integer :: i0, i1
-    freq = 0
-    if (self%n_hist < 32) return
-    eps = 1e-9_wp * (t1 - t0)
-    if (self%t_hist(self%n_hist) < t1 - eps) return
-    i0 = 1
-    do while (self%t_hist(i0) < t0 - eps)
-      i0 = i0 + 1
-    end do
-    i1 = i0
-    do while (i1 < self%n_hist)
-      if (self%t_hist(i1 + 1) > t1 + eps) exit
-      i1 = i1 + 1
-    end do
-    if (i1 - i0 + 1 < 32) return
-    freq = dominant_frequency(self%t_hist(i0:i1), self%p_hist(i0:i1), &
-                              F_MIN_OVER_F0 * self%c0 / (sqrt(2.0_wp) * self%side))
-  end function window_frequency
+  end subroutine square_topology_summary
 
   !> "what at t omega = 1.2345" (time t_first scaled by ts, named tunit),
   !> with the paper's reconnection time when `paper`.

@@ -1,10 +1,11 @@
-!> Initial particle placement in a disc (2D) or ball (3D) of radius R.
+!> Initial particle placement in a disc (2D) or ball (3D) of radius R, and
+!> on a square (place_square).
 !>
 !> 'rings': concentric rings (shells in 3D) of spacing dx at radii
 !> (k - 1/2) dx, k = 1..K with K dx = R, each evenly filled; every particle
 !> gets the area (volume) of its ring divided by the ring's count, so the
 !> volumes add up to the body's exactly.  It survives strong stretching
-!> where a clipped lattice fails (doc/theory/, "Measurements the defaults rest on").
+!> where a clipped lattice fails (doc/studies/numerics.md, "The plain scheme on circle2d").
 !> 'lattice': a square (cubic) lattice of spacing dx clipped to the body,
 !> each particle with volume dx^dim.
 !> 'packed': the first guess of the packing (doc/theory/packing.md): the clipped
@@ -37,7 +38,7 @@ module placement
   implicit none
   private
   public :: place_ball, ball_spacing, PLACE_RINGS, PLACE_LATTICE, PLACE_PACKED, hash_uniform, &
-            packed_volume
+            packed_volume, place_square
 
   integer, parameter :: PLACE_RINGS = 1, PLACE_LATTICE = 2, PLACE_PACKED = 3
   real(wp), parameter :: PACK_NOISE = 1.0_wp
@@ -383,5 +384,28 @@ contains
     real(wp) :: x(3, 0), vol(0)
     call clipped_lattice(dim, radius, dx, 1, 0, x, vol, mask, total)
   end function clipped_lattice_count
+
+  !> The n_side^2 points x(3, :) (n_side = max(4, nint(sqrt(n)))) of the
+  !> square lattice of spacing dx = side/n_side filling the square of that
+  !> side centred at the origin (2D): point i + (j - 1) n_side at
+  !> ((i - (n_side + 1)/2) dx, (j - (n_side + 1)/2) dx), so that -x and -y
+  !> are lattice points exactly.
+  subroutine place_square(side, n, x, dx, n_side)
+    real(wp), intent(in) :: side
+    integer, intent(in) :: n
+    real(wp), allocatable, intent(out) :: x(:, :)
+    real(wp), intent(out) :: dx
+    integer, intent(out) :: n_side
+    integer :: i, j
+    n_side = max(4, nint(sqrt(real(n, wp))))
+    dx = side / n_side
+    allocate(x(3, n_side**2))
+    do j = 1, n_side
+      do i = 1, n_side
+        x(:, i + (j - 1) * n_side) = [(i - 0.5_wp * (n_side + 1)) * dx, &
+                                      (j - 0.5_wp * (n_side + 1)) * dx, 0.0_wp]
+      end do
+    end do
+  end subroutine place_square
 
 end module placement

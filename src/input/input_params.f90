@@ -145,9 +145,8 @@ contains
     call v%group('run', 'what to run and for how long')
     call v%var('case', p%case_name, 'the test case; its own group sets its geometry', &
                words=case_names, &
-               doc='the test case. Its own group (`&circle2d`, `&ellipsoid3d`, ' // &
-                   '`&square_rotation`, `&square_vortical`) sets its geometry and initial ' // &
-                   'flow')
+               doc='the test case. Its own group, of the same name (`&circle2d` for ' // &
+                   '`circle2d`), sets its geometry and initial flow')
     call v%var('t_end', p%t_end, 'end time (read as t A0 with the non-dimensional defaults)', &
                gt=0.0_wp)
     call v%var('max_steps', p%max_steps, 'stop after this many steps, 0 for no limit (a ' // &

@@ -160,10 +160,10 @@ contains
         if (label(i, j) /= 0) cycle
         if (fluid(i, j) == 1) then
           ncomp = ncomp + 1
-          call fill(i, j, ncomp, 1_1, 8, area)
+          call fill(fluid, label, stack, i, j, ncomp, 1_1, 8, area)
         else
           nvoid = nvoid + 1
-          call fill(i, j, -nvoid, 0_1, 4, area)
+          call fill(fluid, label, stack, i, j, -nvoid, 0_1, 4, area)
         end if
       end do
     end do
@@ -202,41 +202,45 @@ contains
 
   contains
 
-    !> Flood fill from (i1, j1) of the cells with fluid == value, giving them
-    !> label `lab`; `conn` 4 or 8 neighbours; area = cells filled.
-    subroutine fill(i1, j1, lab, value, conn, area)
-      integer, intent(in) :: i1, j1, lab, conn
-      integer(kind=1), intent(in) :: value
-      integer, intent(out) :: area
-      integer, parameter :: di(8) = [1, -1, 0, 0, 1, 1, -1, -1]
-      integer, parameter :: dj(8) = [0, 0, 1, -1, 1, -1, 1, -1]
-      integer :: top, ii, jj, a, b, d
-      top = 1
-      stack(:, 1) = [i1, j1]
-      label(i1, j1) = lab
-      area = 0
-      do while (top > 0)
-        ii = stack(1, top)
-        jj = stack(2, top)
-        top = top - 1
-        area = area + 1
-        do d = 1, conn
-          a = ii + di(d)
-          b = jj + dj(d)
-          if (a < 1 .or. a > nc(1) .or. b < 1 .or. b > nc(2)) cycle
-          if (label(a, b) /= 0 .or. fluid(a, b) /= value) cycle
-          label(a, b) = lab
-          top = top + 1
-          stack(:, top) = [a, b]
-        end do
-      end do
-    end subroutine fill
-
     subroutine mark_outside(lab)
       integer, intent(in) :: lab
       if (lab < 0) counts(-lab) = 0
     end subroutine mark_outside
 
   end function fluid_topology
+
+  !> Flood fill from (i1, j1) of the cells with fluid == value, giving them
+  !> label `lab`; `conn` 4 or 8 neighbours; area = cells filled; stack:
+  !> room for every cell.
+  pure subroutine fill(fluid, label, stack, i1, j1, lab, value, conn, area)
+    integer(kind=1), intent(in) :: fluid(:, :)
+    integer, intent(inout) :: label(:, :), stack(:, :)
+    integer, intent(in) :: i1, j1, lab, conn
+    integer(kind=1), intent(in) :: value
+    integer, intent(out) :: area
+    integer, parameter :: di(8) = [1, -1, 0, 0, 1, 1, -1, -1]
+    integer, parameter :: dj(8) = [0, 0, 1, -1, 1, -1, 1, -1]
+    integer :: top, ii, jj, a, b, d, nc(2)
+    nc = shape(label)
+    top = 1
+    stack(:, 1) = [i1, j1]
+    label(i1, j1) = lab
+    area = 0
+    do while (top > 0)
+      ii = stack(1, top)
+      jj = stack(2, top)
+      top = top - 1
+      area = area + 1
+      do d = 1, conn
+        a = ii + di(d)
+        b = jj + dj(d)
+        if (a < 1 .or. a > nc(1) .or. b < 1 .or. b > nc(2)) cycle
+        if (label(a, b) /= 0 .or. fluid(a, b) /= value) cycle
+        label(a, b) = lab
+        top = top + 1
+        stack(:, top) = [a, b]
+      end do
+    end do
+  end subroutine fill
 
 end module flow_diagnostics

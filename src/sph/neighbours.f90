@@ -128,7 +128,7 @@ contains
     real(wp), allocatable :: xc(:), yc(:), zc(:)
     logical, allocatable :: owned(:)
     integer(i8) :: nbytes, pos
-    integer :: a, c, ca, k, kk, nr, r, pass, lo, hi, cnt, longest
+    integer :: a, ca, k, kk, nr, r, pass, lo, hi, cnt, longest
     logical :: a_owned
     real(wp) :: r2max, xa, ya, za
     nl%radius = radius
@@ -155,15 +155,7 @@ contains
     allocate(nl%start(ntot + 1), nl%row(ntot), nl%cell(ntot))
     nl%row = cs%order
     nl%cell = cs%cell(cs%order)
-    ! the ranges whose particles sit in consecutive slots
-    do c = 1, cs%n_cells
-      do r = 1, nl%n_ranges(c)
-        lo = nl%ranges(1, r, c)
-        hi = nl%ranges(2, r, c)
-        nl%ranges(3, r, c) = NOT_CONSECUTIVE
-        if (all(nl%row(lo + 1:hi) == nl%row(lo:hi - 1) + 1)) nl%ranges(3, r, c) = nl%row(lo) - lo
-      end do
-    end do
+    call mark_consecutive(nl, cs%n_cells)
     ! two passes over the same candidates: count each row's bytes, then
     ! fill a stream of exactly that size
     nl%n_pairs = 0
@@ -239,6 +231,23 @@ contains
     end subroutine put
 
   end subroutine neighbour_build
+
+  !> The ranges of nl's cells whose particles sit in consecutive slots of
+  !> the canonical order: their shift (ranges(3, :, :)), NOT_CONSECUTIVE
+  !> for the others.
+  subroutine mark_consecutive(nl, n_cells)
+    type(neighbour_list_t), intent(inout) :: nl
+    integer, intent(in) :: n_cells
+    integer :: c, r, lo, hi
+    do c = 1, n_cells
+      do r = 1, nl%n_ranges(c)
+        lo = nl%ranges(1, r, c)
+        hi = nl%ranges(2, r, c)
+        nl%ranges(3, r, c) = NOT_CONSECUTIVE
+        if (all(nl%row(lo + 1:hi) == nl%row(lo:hi - 1) + 1)) nl%ranges(3, r, c) = nl%row(lo) - lo
+      end do
+    end do
+  end subroutine mark_consecutive
 
   !> The lowest 8 bits of v as a (two's complement) int8.
   elemental integer(int8) function byte(v)
@@ -339,7 +348,7 @@ contains
     integer, allocatable :: table(:), first(:), perm(:), rank(:)
     integer(i8), allocatable :: cc(:, :)
     integer(i8) :: ci(3), c_last(3), off(3, 13)
-    integer :: i, k, m, u, s, dx, dy, dz, zr, bits
+    integer :: i, k, m, u, s, bits
     ! 1. distinct cells (cc(:, 1:m)); first(i) is particle i's among them
     bits = 10
     allocate(table(0:2**bits - 1), cc(3, 2**(bits - 1)), first(ntot))
@@ -391,19 +400,9 @@ contains
         call sort_index(id, cs%order(cs%cstart(k):cs%cstart(k + 1) - 1))
       end do
     end if
-    ! 4. the stencil offsets after (0, 0, 0) in lexicographic (z, y, x) order
-    zr = merge(1, 0, dim == 3)
+    ! 4. each cell's neighbours after it in the stencil
     cs%n_after = (3**dim - 1) / 2
-    s = 0
-    do dz = 0, zr
-      do dy = -1, 1
-        do dx = -1, 1
-          if (dz == 0 .and. (dy < 0 .or. (dy == 0 .and. dx <= 0))) cycle
-          s = s + 1
-          off(:, s) = [dx, dy, dz]
-        end do
-      end do
-    end do
+    off = stencil_after(dim)
     allocate(cs%after(cs%n_after, m))
     do k = 1, m
       do s = 1, cs%n_after
@@ -456,6 +455,25 @@ contains
     end subroutine locate
 
   end subroutine bin_cells
+
+  !> The stencil's cell offsets after (0, 0, 0) in lexicographic (z, y, x)
+  !> order: the first (3^dim - 1)/2 columns.
+  pure function stencil_after(dim) result(off)
+    integer, intent(in) :: dim
+    integer(i8) :: off(3, 13)
+    integer :: s, dx, dy, dz
+    off = 0
+    s = 0
+    do dz = 0, merge(1, 0, dim == 3)
+      do dy = -1, 1
+        do dx = -1, 1
+          if (dz == 0 .and. (dy < 0 .or. (dy == 0 .and. dx <= 0))) cycle
+          s = s + 1
+          off(:, s) = [dx, dy, dz]
+        end do
+      end do
+    end do
+  end function stencil_after
 
   !> Integer coordinates of the cell of side `size` aligned on `origin`
   !> holding x: floor((x - origin)/size) along the first dim axes, 0 along

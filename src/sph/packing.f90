@@ -16,7 +16,7 @@
 module packing
   use kinds, only: wp, i8, pi
   use kernels, only: kernel_t, kernel_w, kernel_f_list, kernel_w_list
-  use fluid_rhs, only: row_capacity
+  use pair_rows, only: row_capacity
   use neighbours, only: neighbour_list_t, neighbour_row
   use solver, only: solver_t, solver_rebuild
   use decomposition, only: decomp_refresh
@@ -206,8 +206,8 @@ contains
     type(packing_params_t), intent(in) :: prm
     type(packing_report_t), intent(out) :: rep
     type(exterior_table_t) :: tab
-    real(wp), allocatable :: grad(:, :), gam(:), inner(:, :)
-    real(wp) :: vol, coef, level, sums(2), dmax_abs, r_clip, r, d(3), dn, moved, vmax, t0, h
+    real(wp), allocatable :: grad(:, :), gam(:)
+    real(wp) :: vol, coef, level, dmax_abs, r_clip, r, d(3), dn, moved, vmax, t0, h
     integer :: i, it, n, ntot, clipped
     logical :: new_level, hit
     t0 = wall_time()
@@ -247,15 +247,8 @@ contains
       ! kernel's discretisation error, 0.3 % at h = 1.6 dx in 3D) scales the
       ! exterior part, so that the free surface is in balance with the bulk
       if (new_level) then
-        allocate(inner(2, n))
-        do i = 1, n
-          inner(:, i) = merge([gam(i), 1.0_wp], [0.0_wp, 0.0_wp], &
-                              norm2(s%parts%x(:, i)) < prm%radius - 2 * kern%support)
-        end do
-        sums = par_sum_exact(env, inner)
-        deallocate(inner)
-        level = 1
-        if (sums(2) > 0) level = sums(1) / (sums(2) * tab%total)
+        level = bulk_level(env, s%parts%x(:, 1:n), gam(1:n), prm%radius - 2 * kern%support, &
+                           tab%total)
         rep%level = level
       end if
       vmax = 0
@@ -326,5 +319,23 @@ contains
     end function off_planes
 
   end subroutine pack_ball
+
+  !> The level of the discrete kernel sum gam in the bulk (the particles x
+  !> within radius `inner` of the centre), over all ranks, relative to the
+  !> exterior table's total; 1 when no particle is that deep.
+  real(wp) function bulk_level(env, x, gam, inner, total) result(level)
+    type(parallel_env_t), intent(in) :: env
+    real(wp), intent(in) :: x(:, :), gam(:), inner, total
+    real(wp) :: sums(2)
+    real(wp), allocatable :: part(:, :)
+    integer :: i
+    allocate(part(2, size(gam)))
+    do i = 1, size(gam)
+      part(:, i) = merge([gam(i), 1.0_wp], [0.0_wp, 0.0_wp], norm2(x(:, i)) < inner)
+    end do
+    sums = par_sum_exact(env, part)
+    level = 1
+    if (sums(2) > 0) level = sums(1) / (sums(2) * total)
+  end function bulk_level
 
 end module packing

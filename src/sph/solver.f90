@@ -11,9 +11,11 @@ module solver
   use list_manager, only: list_manager_t, list_radius, list_check, list_build, list_pair_work, &
                           list_origin
   use eos, only: eos_t, eos_pressure
-  use fluid_rhs, only: rhs_params_t, rhs_work_t, rhs_renormalisation, rhs_evaluate, rhs_shift, &
-                       rhs_strain_rate, rhs_reconstructs, DIFF_ANTUONO, DIFF_NONE, VISC_NONE, &
-                       PGRAD_HIGHER_ORDER, PGRAD_RENORMALISED, DIV_RENORMALISED
+  use pair_rows, only: rhs_work_t
+  use fluid_rhs, only: rhs_params_t, rhs_evaluate, rhs_shift, rhs_reconstructs, DIFF_ANTUONO, &
+                       DIFF_NONE, VISC_NONE, PGRAD_HIGHER_ORDER, PGRAD_RENORMALISED, &
+                       DIV_RENORMALISED
+  use first_pass, only: rhs_renormalisation, rhs_strain_rate
   use parallel_env, only: parallel_env_t, par_max, wall_time
   use decomposition, only: decomposition_t, decomp_redistribute, decomp_halo_build, &
                            decomp_refresh, decomp_refresh_field, decomp_measure, BALANCE_PAIRS

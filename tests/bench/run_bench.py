@@ -56,11 +56,13 @@ CASES = {
     # its column reads n/a
     "circle2d_convergence": ("input/circle2d_convergence.nml", 80425, 20,
                              ["particles.placement=rings"]),
+    # the squares' input: the general pair loop with binned sums, and shifting
+    "square_rotation": ("input/square_rotation.nml", 90000, 20, []),
 }
 # the cases whose pair loops have no operation count below (no % of peak)
-NO_FLOP_COUNT = {"circle2d_convergence"}
-# Floating-point operations of one pair, counted in src/sph/pair_rows.inc and
-# fluid_rhs (multiplications, additions, divisions and square roots as one
+NO_FLOP_COUNT = {"circle2d_convergence", "square_rotation"}
+# Floating-point operations of one pair, counted in src/sph/pair_terms.fypi and
+# pair_loop.fypi (multiplications, additions, divisions and square roots as one
 # each): per listed pair the distance test (8); per pair within the support
 # the kernel (10) and the body: 54 with the standard operators, 140 with the
 # renormalised divergence and the higher-order gradient; the first pass
@@ -170,7 +172,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="smaller cases (a smoke test)")
     ap.add_argument("--cases", default="circle2d,ellipsoid3d,ellipsoid3d_renormalised,"
-                                       "circle2d_convergence")
+                                       "circle2d_convergence,square_rotation")
     ap.add_argument("--ranks", default="1,2")
     ap.add_argument("--baseline", default="", help="git revision to compare with")
     ap.add_argument("--repeat", type=int, default=2, help="runs of each with --baseline")

@@ -292,7 +292,7 @@ def test_page_sizes():
 # ------------------------------------------------- what the code cites in doc/
 CITING = [ROOT / "Makefile", ROOT / "setup.sh", *ROOT.glob("input/*.nml"),
           *[p for d in ("src", "tests", "postproc") for p in (ROOT / d).rglob("*")
-            if p.suffix in (".f90", ".F90", ".inc", ".pf", ".py", ".sh", "")
+            if p.suffix in (".f90", ".F90", ".inc", ".fypp", ".fypi", ".pf", ".py", ".sh", "")
             and p.is_file()]]
 # The validation driver writes the generated reports; its text is rewritten
 # with the reports (doc/validation/README.md), not here.

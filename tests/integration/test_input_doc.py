@@ -31,7 +31,14 @@ def generated_tables():
 
 
 def doc_with_tables(text, tables):
-    """text with the table under each group's heading replaced by tables[group]."""
+    """text with the table under each group's heading replaced by tables[group];
+    a group without a heading (a new case's) gets one, before `&parallel`'s."""
+    in_doc = {m.group(2) for m in TABLE.finditer(text)}
+    for group in tables:
+        if group not in in_doc:
+            at = text.index("### `&parallel`")
+            text = (text[:at] + f"### `&{group}`: used when `run.case = '{group}'`\n\n|\n\n"
+                    + text[at:])
     return TABLE.sub(lambda m: m.group(1) + tables.get(m.group(2), m.group(3)), text)
 
 

@@ -581,6 +581,24 @@ def test_scripts_help_and_bad_run_directory(scratch, tiny_run):
     assert p.returncode == 2 and "circle2d" in p.stderr, p.stderr
 
 
+def test_errors_of_a_case_without_exact_solution(scratch):
+    # a solver case the package has no entry for (here the rotating square
+    # renamed in input.nml): unit scales, probe pressure, kinetic energy
+    # and free surface, the case's name from the run
+    d = scratch("postproc_new_case") / "run"
+    p = run_sph(["input/square_rotation.nml", "particles.n=400", "run.max_steps=10",
+                 "output.dt=0.01", f"output.dir={d}"])
+    assert p.returncode == 0, p.out
+    nml = d / "input.nml"
+    nml.write_text(nml.read_text().replace("square_rotation", "new_case"))
+    p = script("errors", d)
+    assert "case 'new_case' has no exact solution" in p.stdout, p.stdout
+    assert "probe 1: p(0)" in p.stdout and "kinetic energy:" in p.stdout, p.stdout
+    assert "free surface at t = 0:" in p.stdout, p.stdout
+    js = json.loads(script("errors", d, "--json").stdout)
+    assert js["case"] == "new_case" and js["p0_exact"] is None and js["ke_change"] < 0.01
+
+
 # ---------------------------------------------------------------------------
 # The package: python3 -m sphpost, the functions validate calls, the names
 # ---------------------------------------------------------------------------

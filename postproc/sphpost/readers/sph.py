@@ -9,7 +9,7 @@ import re
 
 import numpy as np
 
-from ..cases import case_info, patch_volume
+from ..cases import CASES, case_info, patch_volume
 from ..exceptions import PostprocError
 from .namelist import read_namelist
 
@@ -120,15 +120,19 @@ class Run:
         self.ts = read_timeseries(ts)
         nml_path = os.path.join(self.path, "input.nml")
         self.nml = read_namelist(nml_path) if os.path.exists(nml_path) else {}
-        case = None
+        case = self.nml.get("run", {}).get("case")
         dim = None
-        if not self.nml.get("run", {}).get("case"):
-            if not self.snapshots:
-                raise PostprocError(f"'{path}' has neither input.nml nor snapshots: "
-                                    "cannot tell the case")
+        if not case and not self.snapshots:
+            raise PostprocError(f"'{path}' has neither input.nml nor snapshots: "
+                                "cannot tell the case")
+        if self.snapshots and (not case or str(case).lower() not in CASES):
             attrs = self.snapshot_attrs(self.snapshots[0])
-            case, dim = attrs["case"], attrs["dim"]
+            case, dim = case or attrs["case"], attrs["dim"]
         self.case = case_info(self.nml, case, dim)
+        if patch_volume(self.case) is None and self.snapshots:
+            # a case without an entry in sphpost.cases: the run tells its volume
+            s = self.snapshot(0)
+            self.case.volume = float(np.sum(s["mass"] / s["density"]))
         self.time = self.ts["time"]
         self._n = None
 

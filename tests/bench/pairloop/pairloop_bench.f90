@@ -1,6 +1,6 @@
 !> make bench-pairloop: what the standard operators' pair loop costs in three
-!> structures and two precisions, on one core (doc/studies/ellipsoid3d.md, "What
-!> three times faster would take").  The particles: a jittered cubic lattice
+!> structures and two precisions, on one core (doc/studies/speed.md, "What three
+!> times faster would take").  The particles: a jittered cubic lattice
 !> of spacing dx = 1 in a ball (212,472 particles by default; the argument
 !> sets the lattice's side, 74), h/dx 1.6, Wendland C2, list radius 1.1 times
 !> the support (the bench's skin of 0.2 h), then moved by up to 0.05 dx, as
