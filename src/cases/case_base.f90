@@ -1,11 +1,11 @@
 !> The interface every prototype problem implements: its own namelist group
-!> (the rows describing its variables, their reader, their values and the
-!> rules between them, its largest initial speed), its initial particles,
+!> (its variables, one line each in visit, and the rules between them, its
+!> largest initial speed), its initial particles,
 !> the time-series columns and snapshot fields it adds (typically its exact
 !> or reference solution and the errors against it), and its closing summary.
 !> A new case is a new module extending case_t plus one line in case_factory.
 !>
-!> A case must say its group (vars, read_group, value_text), its largest
+!> A case must say its group (visit, a line a variable), its largest
 !> initial speed (max_speed: the Mach check) and its particles (setup); the
 !> rest has defaults here for a case that adds nothing: no rules between its
 !> variables, no packing, no columns, the solver's free-surface indicator
@@ -15,7 +15,7 @@
 !> unused-argument warning.
 module case_base
   use kinds, only: wp, i8
-  use input_var, only: var_t
+  use input_visit, only: visit_t
   use input_params, only: particles_params_t, physics_params_t
   use eos, only: eos_t
   use kernels, only: kernel_t
@@ -60,9 +60,7 @@ module case_base
     real(wp) :: pack_slab(3) = PLANE_SLAB
   contains
     procedure :: initial_state => no_initial_state
-    procedure(vars_i), deferred :: vars
-    procedure(read_group_i), deferred :: read_group
-    procedure(value_text_i), deferred :: value_text
+    procedure(visit_i), deferred :: visit
     procedure :: check => no_check
     procedure(max_speed_i), deferred :: max_speed
     procedure(setup_i), deferred :: setup
@@ -79,31 +77,13 @@ module case_base
   end type case_slot_t
 
   abstract interface
-    !> The rows describing the variables of the case's group (group = 0).
-    function vars_i(self) result(vars)
-      import :: case_t, var_t
-      class(case_t), intent(in) :: self
-      type(var_t), allocatable :: vars(:)
-    end function vars_i
-
-    !> Reads namelist text '&name item /' of the case's group into self;
-    !> changes nothing if the read fails (ios /= 0, iomsg says why).
-    subroutine read_group_i(self, text, ios, iomsg)
-      import :: case_t
+    !> The variables of the case's own group, one v%var call each
+    !> (input_visit), in the order of the written files.
+    subroutine visit_i(self, v)
+      import :: case_t, visit_t
       class(case_t), intent(inout) :: self
-      character(len=*), intent(in) :: text
-      integer, intent(out) :: ios
-      character(len=*), intent(inout) :: iomsg
-    end subroutine read_group_i
-
-    !> The value of the group's variable `name` as namelist text that reads
-    !> back exactly (input_text: real_str, real_list, quoted).
-    function value_text_i(self, name) result(text)
-      import :: case_t
-      class(case_t), intent(in) :: self
-      character(len=*), intent(in) :: name
-      character(len=:), allocatable :: text
-    end function value_text_i
+      type(visit_t), intent(inout) :: v
+    end subroutine visit_i
 
     !> The largest initial speed and how it follows from the group, e.g.
     !> '&circle2d a0 radius' (c0 must be several times larger).

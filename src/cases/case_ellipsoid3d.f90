@@ -5,7 +5,7 @@
 module case_ellipsoid3d
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use kinds, only: wp
-  use input_var, only: var_t, T_REAL, T_LOGICAL, SCALAR, LO_NONE, LO_GT, HI_NONE, CH_NONE
+  use input_visit, only: visit_t
   use input_text, only: real_str, real_list
   use case_stretching, only: stretching_t
   implicit none
@@ -16,9 +16,7 @@ module case_ellipsoid3d
 
   type, extends(stretching_t) :: ellipsoid3d_t
   contains
-    procedure :: vars => ellipsoid3d_vars
-    procedure :: read_group => ellipsoid3d_read_group
-    procedure :: value_text => ellipsoid3d_value_text
+    procedure :: visit => ellipsoid3d_visit
     procedure :: check => ellipsoid3d_check
     procedure :: max_speed => ellipsoid3d_max_speed
   end type ellipsoid3d_t
@@ -36,63 +34,21 @@ contains
     c%rates = [-1.0_wp, -1.0_wp, 2.0_wp]
   end function ellipsoid3d_case
 
-  function ellipsoid3d_vars(self) result(vars)
-    class(ellipsoid3d_t), intent(in) :: self
-    type(var_t), allocatable :: vars(:)
-    vars = [ &
-      var_t(0, 'radius', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
-            'radius R of the initial sphere'), &
-      var_t(0, 'a0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
-            'A0: the unit of the rates'), &
-      var_t(0, 'rates', T_REAL, [3, 0], LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, &
-            'summing to zero within 1e-12, not all zero', &
-            'initial velocity u_k = rates(k) A0 x_k (rates in units of A0)'), &
-      var_t(0, 'prepared', T_LOGICAL, SCALAR, LO_NONE, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
-            'add the compressible part of the start (I1, doc/theory/solutions.md): ' // &
-            'no acoustic mode from P''(0)', &
-            doc='add the compressible part of the initial velocity (I1, ' // &
-                '[solutions](../theory/solutions.md)): without it the falling centre pressure ' // &
-                'rings the lowest acoustic mode (6-8 % of P(0) at c0 = 10); ' // &
-                'input/ellipsoid3d.nml sets it')]
-  end function ellipsoid3d_vars
-
-  subroutine ellipsoid3d_read_group(self, text, ios, iomsg)
+  !> &ellipsoid3d (input_visit).
+  subroutine ellipsoid3d_visit(self, v)
     class(ellipsoid3d_t), intent(inout) :: self
-    character(len=*), intent(in) :: text
-    integer, intent(out) :: ios
-    character(len=*), intent(inout) :: iomsg
-    real(wp) :: radius, a0, rates(3)
-    logical :: prepared
-    namelist /ellipsoid3d/ radius, a0, rates, prepared
-    radius = self%radius
-    a0 = self%a0
-    rates = self%rates
-    prepared = self%prepared
-    read(text, nml=ellipsoid3d, iostat=ios, iomsg=iomsg)
-    if (ios /= 0) return
-    self%radius = radius
-    self%a0 = a0
-    self%rates = rates
-    self%prepared = prepared
-  end subroutine ellipsoid3d_read_group
-
-  function ellipsoid3d_value_text(self, name) result(text)
-    class(ellipsoid3d_t), intent(in) :: self
-    character(len=*), intent(in) :: name
-    character(len=:), allocatable :: text
-    select case (name)
-    case ('radius')
-      text = real_str(self%radius)
-    case ('a0')
-      text = real_str(self%a0)
-    case ('rates')
-      text = real_list(self%rates)
-    case ('prepared')
-      text = trim(merge('.true. ', '.false.', self%prepared))
-    case default
-      error stop 'ellipsoid3d: no variable ' // name
-    end select
-  end function ellipsoid3d_value_text
+    type(visit_t), intent(inout) :: v
+    call v%var('radius', self%radius, 'radius R of the initial sphere', gt=0.0_wp)
+    call v%var('a0', self%a0, 'A0: the unit of the rates', gt=0.0_wp)
+    call v%var('rates', self%rates, 'initial velocity u_k = rates(k) A0 x_k (rates in units ' // &
+               'of A0)', rule='summing to zero within 1e-12, not all zero')
+    call v%var('prepared', self%prepared, 'add the compressible part of the start (I1, ' // &
+               'doc/theory/solutions.md): no acoustic mode from P''(0)', &
+               doc='add the compressible part of the initial velocity (I1, ' // &
+                   '[solutions](../theory/solutions.md)): without it the falling centre ' // &
+                   'pressure rings the lowest acoustic mode (6-8 % of P(0) at c0 = 10); ' // &
+                   'input/ellipsoid3d.nml sets it')
+  end subroutine ellipsoid3d_visit
 
   !> The rates of a divergence-free linear field sum to zero (doc/theory/ X1).
   subroutine ellipsoid3d_check(self, var, what, hint)

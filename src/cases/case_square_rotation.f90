@@ -6,8 +6,7 @@
 !> diagnostics are case_square's.
 module case_square_rotation
   use kinds, only: wp
-  use input_var, only: var_t, T_REAL, SCALAR, LO_GT, HI_NONE, CH_NONE
-  use input_text, only: real_str
+  use input_visit, only: visit_t
   use case_base, only: case_fields_t
   use case_square, only: square_patch_t, square_columns, square_sample, square_fields, &
                          square_topology_summary
@@ -33,9 +32,7 @@ module case_square_rotation
     integer :: n_hist = 0
     real(wp), allocatable :: t_hist(:), p_hist(:)
   contains
-    procedure :: vars => square_rotation_vars
-    procedure :: read_group => square_rotation_read_group
-    procedure :: value_text => square_rotation_value_text
+    procedure :: visit => square_rotation_visit
     procedure :: max_speed => square_rotation_max_speed
     procedure :: initial_velocity => rotation_velocity
     procedure :: pressure_source => rotation_source
@@ -60,46 +57,17 @@ contains
     c%sym = reshape([0.0_wp, 1.0_wp, -1.0_wp, 0.0_wp], [2, 2])   ! (x, y) -> (-y, x)
   end function square_rotation_case
 
-  function square_rotation_vars(self) result(vars)
-    class(square_rotation_t), intent(in) :: self
-    type(var_t), allocatable :: vars(:)
-    vars = [ &
-      var_t(0, 'side', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
-            'side L of the initial square, centred at the origin'), &
-      var_t(0, 'omega', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
-            'omega: initial rigid rotation u = omega y, v = -omega x', &
-            doc='omega: initial rigid rotation u = omega y, v = -omega x; the pressure ' // &
-                'solves Laplacian p = 2 rho0 omega^2, p = 0 on the edges')]
-  end function square_rotation_vars
-
-  subroutine square_rotation_read_group(self, text, ios, iomsg)
+  !> &square_rotation (input_visit); omega is the patch's rate.
+  subroutine square_rotation_visit(self, v)
     class(square_rotation_t), intent(inout) :: self
-    character(len=*), intent(in) :: text
-    integer, intent(out) :: ios
-    character(len=*), intent(inout) :: iomsg
-    real(wp) :: side, omega
-    namelist /square_rotation/ side, omega
-    side = self%side
-    omega = self%rate
-    read(text, nml=square_rotation, iostat=ios, iomsg=iomsg)
-    if (ios /= 0) return
-    self%side = side
-    self%rate = omega
-  end subroutine square_rotation_read_group
-
-  function square_rotation_value_text(self, name) result(text)
-    class(square_rotation_t), intent(in) :: self
-    character(len=*), intent(in) :: name
-    character(len=:), allocatable :: text
-    select case (name)
-    case ('side')
-      text = real_str(self%side)
-    case ('omega')
-      text = real_str(self%rate)
-    case default
-      error stop 'square_rotation: no variable ' // name
-    end select
-  end function square_rotation_value_text
+    type(visit_t), intent(inout) :: v
+    call v%var('side', self%side, 'side L of the initial square, centred at the origin', &
+               gt=0.0_wp)
+    call v%var('omega', self%rate, 'omega: initial rigid rotation u = omega y, v = -omega x', &
+               gt=0.0_wp, &
+               doc='omega: initial rigid rotation u = omega y, v = -omega x; the pressure ' // &
+                   'solves Laplacian p = 2 rho0 omega^2, p = 0 on the edges')
+  end subroutine square_rotation_visit
 
   !> u = omega (y, -x): omega L/sqrt(2) at the corners.
   subroutine square_rotation_max_speed(self, speed, formula)

@@ -5,8 +5,7 @@
 !> diagnostics are case_square's.
 module case_square_vortical
   use kinds, only: wp
-  use input_var, only: var_t, T_REAL, SCALAR, LO_GT, HI_NONE, CH_NONE
-  use input_text, only: real_str
+  use input_visit, only: visit_t
   use case_base, only: case_fields_t
   use case_square, only: square_patch_t, square_fields, square_topology_summary
   use kernels, only: kernel_t
@@ -21,9 +20,7 @@ module case_square_vortical
 
   type, extends(square_patch_t) :: square_vortical_t
   contains
-    procedure :: vars => square_vortical_vars
-    procedure :: read_group => square_vortical_read_group
-    procedure :: value_text => square_vortical_value_text
+    procedure :: visit => square_vortical_visit
     procedure :: max_speed => square_vortical_max_speed
     procedure :: initial_velocity => vortical_initial_velocity
     procedure :: pressure_source => vortical_source
@@ -46,47 +43,18 @@ contains
     c%sym = reshape([0.0_wp, -1.0_wp, -1.0_wp, 0.0_wp], [2, 2])  ! (x, y) -> (-y, -x)
   end function square_vortical_case
 
-  function square_vortical_vars(self) result(vars)
-    class(square_vortical_t), intent(in) :: self
-    type(var_t), allocatable :: vars(:)
-    vars = [ &
-      var_t(0, 'side', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
-            'side L of the initial square, centred at the origin'), &
-      var_t(0, 'v0', T_REAL, SCALAR, LO_GT, HI_NONE, 0.0_wp, 0.0_wp, CH_NONE, '', &
-            'V0: initial u = V0 (f(y) - e^-4), v = -V0 (f(x) - e^-4), f(s) = exp(-(4s/L)^2)', &
-            doc='V0: initial u = V0 (f(y) - e^-4), v = -V0 (f(x) - e^-4), f(s) = exp(-(4 ' // &
-                's/L)^2); the pressure solves Laplacian p = 2 rho0 (32 V0/L^2)^2 x y ' // &
-                'f(x) f(y), p = 0 on the edges ([theory](../theory/solutions.md) X4)')]
-  end function square_vortical_vars
-
-  subroutine square_vortical_read_group(self, text, ios, iomsg)
+  !> &square_vortical (input_visit); v0 is the patch's rate.
+  subroutine square_vortical_visit(self, v)
     class(square_vortical_t), intent(inout) :: self
-    character(len=*), intent(in) :: text
-    integer, intent(out) :: ios
-    character(len=*), intent(inout) :: iomsg
-    real(wp) :: side, v0
-    namelist /square_vortical/ side, v0
-    side = self%side
-    v0 = self%rate
-    read(text, nml=square_vortical, iostat=ios, iomsg=iomsg)
-    if (ios /= 0) return
-    self%side = side
-    self%rate = v0
-  end subroutine square_vortical_read_group
-
-  function square_vortical_value_text(self, name) result(text)
-    class(square_vortical_t), intent(in) :: self
-    character(len=*), intent(in) :: name
-    character(len=:), allocatable :: text
-    select case (name)
-    case ('side')
-      text = real_str(self%side)
-    case ('v0')
-      text = real_str(self%rate)
-    case default
-      error stop 'square_vortical: no variable ' // name
-    end select
-  end function square_vortical_value_text
+    type(visit_t), intent(inout) :: v
+    call v%var('side', self%side, 'side L of the initial square, centred at the origin', &
+               gt=0.0_wp)
+    call v%var('v0', self%rate, 'V0: initial u = V0 (f(y) - e^-4), v = -V0 (f(x) - e^-4), ' // &
+               'f(s) = exp(-(4s/L)^2)', gt=0.0_wp, &
+               doc='V0: initial u = V0 (f(y) - e^-4), v = -V0 (f(x) - e^-4), f(s) = ' // &
+                   'exp(-(4 s/L)^2); the pressure solves Laplacian p = 2 rho0 (32 V0/L^2)^2 ' // &
+                   'x y f(x) f(y), p = 0 on the edges ([theory](../theory/solutions.md) X4)')
+  end subroutine square_vortical_visit
 
   !> |u| = sqrt(2) V0 (1 - e^-4) at the centre.
   subroutine square_vortical_max_speed(self, speed, formula)

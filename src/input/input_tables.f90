@@ -1,12 +1,13 @@
-!> The tables of doc/reference/input.md: one markdown row per input variable, made
-!> from its description (var_t) alone, so that the documentation is the
-!> program's (config_write_input_tables writes them; `make input-doc`).
+!> What a row (var_t) says in words: what is allowed, as messages, `--help`
+!> and the written files say it, and the row of doc/reference/input.md's
+!> tables, made from the description alone so that the documentation is the
+!> program's (input_write: write_tables; `make input-doc`).
 module input_tables
-  use input_var, only: var_t, T_LOGICAL, LO_NONE, LO_GT, LO_GE, HI_NONE, HI_LT, CH_NONE
-  use input_text, only: num_str, int_str
+  use input_var, only: var_t, T_LOGICAL, LO_NONE, LO_GT, LO_GE, HI_NONE, HI_LT
+  use input_text, only: num_str, int_str, allowed_words
   implicit none
   private
-  public :: TABLE_HEADER, table_row, range_text
+  public :: TABLE_HEADER, table_row, range_text, allowed_text
 
   character(len=*), parameter :: TABLE_HEADER(2) = [character(len=49) :: &
     '| variable | type | default | allowed | meaning |', '|---|---|---|---|---|']
@@ -14,11 +15,10 @@ module input_tables
 contains
 
   !> The row of v: `name` | type | `default` | allowed | meaning, with
-  !> default the value's namelist text ('' for an array of probes: all 0.0)
-  !> and words the allowed words of v%choices.
-  function table_row(v, default, words) result(line)
+  !> default the value's namelist text (for a two-dimensional array: all 0.0).
+  function table_row(v, default) result(line)
     type(var_t), intent(in) :: v
-    character(len=*), intent(in) :: default, words(:)
+    character(len=*), intent(in) :: default
     character(len=:), allocatable :: line
     character(len=*), parameter :: TYPES(4) = [character(len=7) :: 'integer', 'real', &
                                                 'string', 'logical']
@@ -34,21 +34,20 @@ contains
     meaning = trim(v%doc)
     if (len(meaning) == 0) meaning = trim(v%help)
     line = '| `' // trim(v%name) // '` | ' // typ // ' | ' // text // ' | ' // &
-           md_cell(allowed(v, words)) // ' | ' // md_cell(meaning) // ' |'
+           md_cell(allowed(v)) // ' | ' // md_cell(meaning) // ' |'
   end function table_row
 
   !> What is allowed for v, as doc/reference/input.md writes it: the words, the range
   !> (range_text, as the messages say it), then the rule, if any.
-  function allowed(v, words) result(s)
+  function allowed(v) result(s)
     type(var_t), intent(in) :: v
-    character(len=*), intent(in) :: words(:)
     character(len=:), allocatable :: s
     integer :: k
     s = ''
-    if (v%choices /= CH_NONE) then
-      do k = 1, size(words)
+    if (size(v%words) > 0) then
+      do k = 1, size(v%words)
         if (k > 1) s = s // ', '
-        s = s // "`'" // trim(words(k)) // "'`"
+        s = s // "`'" // trim(v%words(k)) // "'`"
       end do
     else if (v%lo_rule /= LO_NONE .or. v%hi_rule /= HI_NONE) then
       s = range_text(v)
@@ -60,6 +59,21 @@ contains
       s = s // trim(v%rule)
     end if
   end function allowed
+
+  !> What is allowed for v, e.g. "0 < cfl <= 3" or "one of 'rk4', 'pc2'".
+  function allowed_text(v) result(s)
+    type(var_t), intent(in) :: v
+    character(len=:), allocatable :: s
+    if (size(v%words) > 0) then
+      s = 'one of ' // allowed_words(v%words)
+    else if (v%lo_rule /= LO_NONE .or. v%hi_rule /= HI_NONE) then
+      s = range_text(v)
+    else if (v%type == T_LOGICAL) then
+      s = '.true. or .false.'
+    else
+      s = trim(v%rule)
+    end if
+  end function allowed_text
 
   !> s with every | escaped, for a markdown table cell.
   function md_cell(s) result(t)

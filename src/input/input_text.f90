@@ -9,7 +9,7 @@ module input_text
   private
   public :: fail, closest, allowed_words, quoted_list, quoted, shown_value, unquoted, &
             value_is_bare, base_name, word_at, name_end_at, is_letter, is_name_char, lower, &
-            pad, os_reason, int_str, num_str, real_list, real_str
+            pad, os_reason, int_str, num_str, real_list, real_str, list_items
 
   interface int_str
     module procedure int_str_default, int_str_i8
@@ -246,6 +246,24 @@ contains
       s = s // real_str(x(k))
     end do
   end function real_list
+
+  !> The n comma-separated items of text (the value of an array), trimmed:
+  !> real_list's inverse as text.
+  function list_items(text, n) result(items)
+    character(len=*), intent(in) :: text
+    integer, intent(in) :: n
+    character(len=40) :: items(n)
+    integer :: k, start, comma
+    items = ''
+    start = 1
+    do k = 1, n
+      comma = index(text(start:), ',')
+      if (comma == 0) comma = len(text) - start + 2
+      items(k) = adjustl(text(start:start + comma - 2))
+      start = start + comma
+      if (start > len(text)) exit
+    end do
+  end function list_items
 
   !> The shortest decimal text that reads back as exactly x: 0.1, 2.0,
   !> -1.0, 1.0e-12 (so that echoed files reproduce the configuration).
