@@ -268,14 +268,21 @@ contains
   function par_any_fail(env, ok, errmsg) result(all_ok)
     type(parallel_env_t), intent(in) :: env
     logical, intent(in) :: ok
-    character(len=*), intent(in) :: errmsg
+    !> (unallocated where ok: a deferred-length message is set only on failure)
+    character(len=:), allocatable, intent(in) :: errmsg
     logical :: all_ok
     real(wp) :: first
     ! the lowest failing rank says why: the same failure on every rank (a
     ! file all of them read) is said once
     first = par_min(env, merge(real(env%nranks, wp), real(env%rank, wp), ok))
     all_ok = first >= env%nranks
-    if (.not. ok .and. env%rank == nint(first)) write(error_unit, '(a)') 'sph: error: ' // errmsg
+    if (.not. ok .and. env%rank == nint(first)) then
+      if (allocated(errmsg)) then
+        write(error_unit, '(a)') 'sph: error: ' // errmsg
+      else
+        write(error_unit, '(a)') 'sph: error: (no message)'
+      end if
+    end if
   end function par_any_fail
 
 end module run_setup
