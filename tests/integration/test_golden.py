@@ -5,7 +5,8 @@ data/golden.json, written by an earlier build of the solver.
 A digest is the SHA-256 of the last snapshot's datasets (sorted by particle
 id) and attributes, and of timeseries.csv.  The bits depend on the compiler
 and on the instruction set (-march=native: FMA contraction), so the test
-compares only on a machine of the recorded kind and says so otherwise.
+compares only on a machine of the recorded kind (compiler, instruction set,
+what -march=native resolves to) and says so otherwise.
 
 Record anew (only when a change of the results is intended, and say why in
 the commit):  /usr/bin/python3 tests/integration/test_golden.py --write
@@ -84,7 +85,12 @@ def machine():
             flags = set(line.split(":", 1)[1].split())
             break
     isa = "avx512f" if "avx512f" in flags else "avx2" if "avx2" in flags else "other"
-    return {"compiler": fc.splitlines()[0], "isa": isa + ("+fma" if "fma" in flags else "")}
+    # what -march=native resolves to: the code the compiler generates
+    q = subprocess.run(["gfortran", "-march=native", "-Q", "--help=target"], capture_output=True,
+                       text=True).stdout
+    march = next((l.split()[-1] for l in q.splitlines() if l.strip().startswith("-march=")), "")
+    return {"compiler": fc.splitlines()[0], "isa": isa + ("+fma" if "fma" in flags else ""),
+            "march": march}
 
 
 def digest(run_dir):
