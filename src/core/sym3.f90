@@ -74,14 +74,14 @@ contains
     integer, intent(in) :: dim
     real(wp), intent(in) :: c(3, 3)
     real(wp), intent(out) :: inv(3, 3)
-    real(wp) :: a(3, 3)
+    real(wp) :: a(dim, dim)
     integer :: k
     inv = 0
-    a = c
+    a = c(1:dim, 1:dim)
     do k = 1, dim
       inv(k, k) = 1
     end do
-    ok = solve_spd(a(1:dim, 1:dim), inv(1:dim, 1:dim), 1e-12_wp)
+    ok = solve_spd(a, inv(1:dim, 1:dim), 1e-12_wp)
     if (.not. ok) inv = 0
   end function invert_spd
 

@@ -143,8 +143,8 @@ contains
     integer(i8), pointer, contiguous :: ia(:), ib(:)
     integer :: n, c, f, i, nw, first
     n = parts%n
-    codes = [0, mirror_codes(mask)]
-    on = [(planes_on(parts%x(:, i), mask), i = 1, n)]
+    allocate(codes, source=[0, mirror_codes(mask)])
+    allocate(on, source=[(planes_on(parts%x(:, i), mask), i = 1, n)])
     w = set_weight(on)
     nw = 0
     do c = 1, size(codes)
@@ -188,7 +188,7 @@ contains
     logical, allocatable :: keep(:)
     integer :: f, n, nk
     n = parts%n
-    keep = image_code(parts%id(1:n)) == 0
+    allocate(keep, source=image_code(parts%id(1:n)) == 0)
     nk = count(keep)
     if (nk == n) return
     do f = 1, size(FIELD_TABLE)

@@ -73,7 +73,7 @@ contains
     allocate(rbuf(MIGRATE_WORDS, max(1, nrecv)))
     call exchange(env, MIGRATE_WORDS, send_start, sbuf, recv_start, rbuf)
     ! keep the particles that stay, in their order, then append arrivals
-    keep = pack([(i, i = 1, n)], dest == env%rank)
+    allocate(keep, source=pack([(i, i = 1, n)], dest == env%rank))
     nkeep = size(keep)
     n_left = n - nkeep
     call particles_permute(parts, keep)

@@ -89,7 +89,7 @@ contains
     integer :: j, c
     sums = 0
     s2 = kernel%support**2
-    codes = all_codes(mirror)
+    allocate(codes, source=all_codes(mirror))
     do j = 1, parts%n
       do c = 1, size(codes)
         r2 = sum((reflect(parts%x(:, j), codes(c)) - point)**2)
@@ -129,7 +129,7 @@ contains
     dim = parts%dim
     nb = merge(6, 10, dim == 2)              ! 1, xi_a, xi_a xi_b
     nt = nb * (nb + 1) / 2 + nb + 1          ! the normal matrix, the right-hand side, the count
-    codes = all_codes(mirror)
+    allocate(codes, source=all_codes(mirror))
     allocate(near(parts%n * size(codes)), near_code(parts%n * size(codes)))
     nn = 0
     do j = 1, parts%n
