@@ -7,7 +7,7 @@ module input_text
   use kinds, only: wp, i8
   implicit none
   private
-  public :: fail, closest, allowed_words, quoted_list, quoted, shown_value, unquoted, &
+  public :: fail, closest, allowed_words, joined, quoted_list, quoted, shown_value, unquoted, &
             value_is_bare, base_name, word_at, name_end_at, is_letter, is_name_char, lower, &
             pad, os_reason, int_str, num_str, real_list, real_str, list_items
 
@@ -68,13 +68,20 @@ contains
   function allowed_words(list) result(s)
     character(len=*), intent(in) :: list(:)
     character(len=:), allocatable :: s
+    s = joined(quoted_list(list))
+  end function allowed_words
+
+  !> "x1, x2, x3" (each without its trailing blanks).
+  function joined(items) result(s)
+    character(len=*), intent(in) :: items(:)
+    character(len=:), allocatable :: s
     integer :: k
     s = ''
-    do k = 1, size(list)
+    do k = 1, size(items)
       if (k > 1) s = s // ', '
-      s = s // quoted(list(k))
+      s = s // trim(items(k))
     end do
-  end function allowed_words
+  end function joined
 
   function quoted_list(list) result(q)
     character(len=*), intent(in) :: list(:)

@@ -3,7 +3,7 @@
 !> input.nml), the reference of `--help`, and the tables of
 !> doc/reference/input.md (`--input-tables`).
 module input_write
-  use input_text, only: pad, int_str, list_items
+  use input_text, only: pad, int_str, list_items, joined
   use input_tables, only: TABLE_HEADER, table_row, allowed_text
   use input_var, only: var_t, group_t
   use input_visit, only: input_t, list_input
@@ -122,17 +122,5 @@ contains
       if (vars(k)%group == g .and. vars(k)%name == name) text = vars(k)%value
     end do
   end function value_in
-
-  !> "x1, x2, x3".
-  function joined(items) result(s)
-    character(len=*), intent(in) :: items(:)
-    character(len=:), allocatable :: s
-    integer :: k
-    s = ''
-    do k = 1, size(items)
-      if (k > 1) s = s // ', '
-      s = s // trim(items(k))
-    end do
-  end function joined
 
 end module input_write
