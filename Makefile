@@ -83,8 +83,8 @@ $(BUILD)/%.o: %.F90 | $(BUILD)
 	$(FC) $(FFLAGS) -c $< -o $@
 
 # A case implements case_t's bindings and may ignore an argument on purpose
-# (vars: its instance; case_t's defaults, what a simple case need not say:
-# what an override uses); so in src/cases/case_*.f90 only, not in what they use.
+# (case_t's defaults, and a case's setup, need not use every argument the
+# interface passes); so in src/cases/case_*.f90 only, not in what they use.
 $(BUILD)/case_%.o: private FFLAGS += -Wno-unused-dummy-argument
 
 $(FYPP_F90): $(BUILD)/%.f90: %.fypp | $(BUILD)
